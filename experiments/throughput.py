@@ -1,0 +1,147 @@
+"""Training-step throughput of each stage against the machine's measured matmul peak.
+
+  python experiments/throughput.py --config=configs/blender.py:lego_8view_cpu --workdir=DIR
+
+Measures, in one process: the matmul peak (a large jitted fp32 matmul), then
+for the Lo, ray and Hi training steps and the NeRF baseline step: seconds per
+step, rays/s, samples/s, FLOPs per step from XLA's cost analysis, and the
+share of the peak. Uses random-initialised fields on the procedural scene's
+geometry (throughput does not depend on the weights). Writes DIR/results.json.
+"""
+import functools
+import json
+import os
+import time
+
+from absl import app, flags, logging
+import jax
+import jax.numpy as jnp
+import numpy as np
+from ml_collections import config_flags
+
+from halo_jax import camera, defaults, models
+from halo_jax.stages import field, loop, nerf, ray
+
+FLAGS = flags.FLAGS
+config_flags.DEFINE_config_file("config", "configs/default.py", "Config (path[:variant]).")
+flags.DEFINE_string("workdir", None, "Output folder.")
+flags.DEFINE_integer("repeats", 10, "Timed steps per measurement.")
+flags.mark_flags_as_required(["workdir"])
+
+
+def _time(fn, *args):
+  jax.block_until_ready(fn(*args))
+  t = time.perf_counter()
+  for _ in range(FLAGS.repeats):
+    out = fn(*args)
+  jax.block_until_ready(out)
+  return (time.perf_counter() - t) / FLAGS.repeats
+
+
+def _flops(jitted, *args):
+  cost = jitted.lower(*args).compile().cost_analysis()
+  cost = cost[0] if isinstance(cost, (list, tuple)) else cost
+  return float(cost.get("flops", 0.0))
+
+
+def matmul_peak(n=2048):
+  x = jnp.ones((n, n), jnp.float32)
+  mm = jax.jit(lambda a, b: a @ b)
+  return 2.0 * n ** 3 / _time(mm, x, x) / 1e9
+
+
+def _rays(n, key=0):
+  o, d = camera.random_hemisphere_rays(jax.random.PRNGKey(key), n, 4.03, 0.7)
+  return np.asarray(o), np.asarray(d)
+
+
+def step_throughput(loss_fn, cfg, params, data, rays_per_step, samples_per_ray):
+  tx = loop.optimizer(cfg)
+  step = loop.make_step(loss_fn, tx)
+  state = dict(params=params, opt_state=tx.init(params), step=jnp.int32(0),
+               skipped=jnp.int32(0))
+  key = jax.random.PRNGKey(0)
+  flops = _flops(step, state, data, key)
+  fn = lambda s: step(s, data, key)
+  # Donation consumes the state, so time a chain of steps.
+  state, _, _ = fn(state)
+  jax.block_until_ready(state)
+  t = time.perf_counter()
+  for _ in range(FLAGS.repeats):
+    state, loss, _ = fn(state)
+  float(loss)
+  dt = (time.perf_counter() - t) / FLAGS.repeats
+  return {"s_per_step": dt, "rays_per_s": rays_per_step / dt,
+          "samples_per_s": rays_per_step * samples_per_ray / dt, "gflops": flops / 1e9,
+          "gflops_per_s": flops / dt / 1e9}
+
+
+def main(argv):
+  del argv
+  logging.set_verbosity(logging.WARNING)
+  c = FLAGS.config
+  near, far = c.data.near, c.data.far
+  n_data = 80000
+  o, d = _rays(n_data)
+  rgb = np.random.default_rng(0).uniform(size=(n_data, 3)).astype(np.float32)
+  base = {"origins": o, "dirs": d, "rgb": rgb, "crop_idx": np.arange(n_data, dtype=np.int32)}
+  peak = matmul_peak()
+  results = {"peak_gflops": peak, "device": str(jax.devices()[0]), "steps": {}}
+
+  def nerf_step(name, cfg, guide=None, lo_params=None):
+    model = models.nerf_from_config(cfg)
+    data = dict(base)
+    guide_model = None
+    if cfg.sampler.kind == "depth_guided":
+      guide_model = guide[0]
+      data["guide"] = guide[1]
+    if cfg.empty.weight > 0:
+      data["empty"] = {"origins": o, "dirs": d, "acc": np.zeros(n_data, np.float32),
+                       "idx": np.arange(n_data, dtype=np.int32)}
+    lf = functools.partial(nerf._loss_fn, model=model, cfg=cfg, near=near, far=far, white=True,
+                           guide_model=guide_model, radius=4.03)
+    samples = cfg.sampler.num_samples + (cfg.sampler.num_coarse
+                                         if cfg.sampler.kind == "hierarchical" else 0)
+    r = step_throughput(lf, cfg, nerf.init_params(model, 0), jax.device_put(data),
+                        cfg.batch_rays, samples)
+    results["steps"][name] = r
+
+  nerf_step("lo", c.lo)
+  rf = models.ray_field_from_config(c.ray, near, far)
+  rf_params = ray.init_params(rf, 0)
+  rdata = {"train": {"origins": o, "dirs": d, "depth": np.full(n_data, 4.0, np.float32),
+                     "acc": np.ones(n_data, np.float32)}}
+  rdata["random"] = rdata["train"]
+  n_rand = int(round(c.ray.batch_rays * c.ray.random_fraction))
+  lf = functools.partial(ray._loss_fn, model=rf, radius=4.03, far=far,
+                         n_train=c.ray.batch_rays - n_rand, n_random=n_rand)
+  results["steps"]["ray"] = step_throughput(lf, c.ray, rf_params, jax.device_put(rdata),
+                                            c.ray.batch_rays, 1)
+  nerf_step("hi", c.hi, guide=(rf, rf_params))
+  nerf_step("nerf", defaults.as_nerf_baseline(c.copy_and_resolve_references()).hi)
+  # Held-out rendering with the Hi field (forward only).
+  model = models.nerf_from_config(c.hi)
+  ev = field.make_eval_fn(model, c.hi.sampler, near=near, far=far, white_background=True,
+                          guide_model=rf, radius=4.03)
+  hp = nerf.init_params(model, 0)
+  chunk = c.eval.chunk
+  oc, dc = jnp.asarray(o[:chunk]), jnp.asarray(d[:chunk])
+  dt = _time(ev, hp, rf_params, oc, dc)
+  fl = _flops(ev, hp, rf_params, oc, dc)
+  results["steps"]["render"] = {"s_per_step": dt, "rays_per_s": chunk / dt,
+                                "samples_per_s": chunk * c.hi.sampler.num_samples / dt,
+                                "gflops": fl / 1e9, "gflops_per_s": fl / dt / 1e9}
+  for r in results["steps"].values():
+    r["share_of_peak"] = r["gflops_per_s"] / peak
+  os.makedirs(FLAGS.workdir, exist_ok=True)
+  with open(os.path.join(FLAGS.workdir, "results.json"), "w") as f:
+    json.dump(results, f, indent=1)
+  print(f"matmul peak: {peak:.0f} GFLOP/s ({results['device']})")
+  print(f"{'step':7} {'ms':>7} {'rays/s':>9} {'samples/s':>11} {'GFLOP':>7} {'GFLOP/s':>8} {'peak':>6}")
+  for name, r in results["steps"].items():
+    print(f"{name:7} {1e3 * r['s_per_step']:7.1f} {r['rays_per_s']:9.0f} {r['samples_per_s']:11.0f} "
+          f"{r['gflops']:7.2f} {r['gflops_per_s']:8.1f} {100 * r['share_of_peak']:5.1f}%")
+
+
+if __name__ == "__main__":
+  app.run(main)

@@ -1,0 +1,68 @@
+"""The in-memory dataset every loader returns, and rays built from it."""
+import dataclasses
+from typing import Tuple
+
+import numpy as np
+
+from halo_jax import camera
+
+
+class DataError(ValueError):
+  """Bad input data; the message names the file and the field."""
+
+
+@dataclasses.dataclass(frozen=True)
+class Views:
+  """A set of posed images of one size.
+
+  Attributes:
+    images: [N, H, W, 3] float32 in [0, 1] (composited onto the background).
+    c2w: [N, 4, 4] float32 camera-to-world matrices (OpenGL axes).
+    focal: focal length in pixels.
+    names: N view names (e.g. "r_2").
+  """
+  images: np.ndarray
+  c2w: np.ndarray
+  focal: float
+  names: Tuple[str, ...]
+
+  @property
+  def height(self) -> int:
+    return self.images.shape[1]
+
+  @property
+  def width(self) -> int:
+    return self.images.shape[2]
+
+  def rays(self):
+    """All pixel rays: origins [N, H, W, 3], directions [N, H, W, 3]."""
+    o, d = zip(*(camera.pixel_rays(c, self.height, self.width, self.focal) for c in self.c2w))
+    return np.stack(o), np.stack(d)
+
+
+@dataclasses.dataclass(frozen=True)
+class Dataset:
+  """Training and held-out views of one scene plus its bounds.
+
+  Attributes:
+    train, test: Views.
+    near, far: ray bounds.
+    radius: camera radius (mean distance of training cameras from the origin),
+      the sphere on which the ray field parametrises rays.
+    white_background: images were composited onto white.
+  """
+  train: Views
+  test: Views
+  near: float
+  far: float
+  radius: float
+  white_background: bool = True
+
+
+def camera_radius(c2w) -> float:
+  return float(np.linalg.norm(np.asarray(c2w)[:, :3, 3], axis=-1).mean())
+
+
+def select_every(names, every: int):
+  """Every `every`-th name in the order given (e.g. r_0, r_8, ... of the test set)."""
+  return list(names)[::every]

@@ -1,0 +1,135 @@
+"""The full set of fields every config has, with the paper's values (SPEC.md sec. 2).
+
+Config files under `configs/` start from `base_config()` and change a few fields,
+so every run, whatever its file, carries every field and overrides such as
+`--config.lo.encoding.L=6` always find their target.
+"""
+import ml_collections
+
+
+def _model(width=256, depth=8, use_viewdirs=False):
+  return ml_collections.ConfigDict(dict(
+      width=width, depth=depth, skips=(4,), use_viewdirs=use_viewdirs, dir_freqs=4,
+      density_bias=-1.0))
+
+
+def _train(steps, batch_rays, lr_init, lr_final):
+  """Fields shared by every stage's training loop."""
+  return dict(
+      steps=steps,
+      batch_rays=batch_rays,
+      lr_init=lr_init,
+      lr_final=lr_final,
+      max_seconds=0.0,        # stop a stage after this much training time (0: no cap)
+      checkpoint_every=1000,  # steps between checkpoints (and one at the end)
+      log_every=100,          # steps between metrics.jsonl lines
+      eval_every=0,           # steps between held-out evaluations (0: only at the end)
+      eval_every_s=0.0,       # or seconds of training time between them
+  )
+
+
+def _nerf_stage(L, scale, use_viewdirs, steps, num_samples, sampler):
+  cfg = ml_collections.ConfigDict(_train(steps, 3072, 5e-4, 1e-4))
+  cfg.encoding = ml_collections.ConfigDict(dict(L=L, scale=float(scale)))
+  cfg.model = _model(use_viewdirs=use_viewdirs)
+  cfg.sampler = ml_collections.ConfigDict(dict(
+      kind=sampler,         # 'stratified' | 'hierarchical' | 'depth_guided'
+      num_samples=num_samples,
+      num_coarse=64,        # hierarchical: stratified samples of the coarse pass
+      coarse_weight=0.1,    # hierarchical: weight of the coarse pass's L_rec
+      window=0.3,           # depth_guided: r, half window as a fraction of far - near
+      near_only=False,      # depth_guided: tighten only the near side (authors' code)
+  ))
+  cfg.density_noise = 1.0
+  cfg.precrop_steps = 500
+  cfg.precrop_frac = 0.5
+  cfg.empty = ml_collections.ConfigDict(dict(
+      weight=0.0,           # lambda of L_empty (0 leaves the loss and the Lo bank out)
+      tau=0.01,             # Lo-NeRF opacity below which a random ray counts as empty
+      num_rays=1024,        # empty rays per step
+      num_samples=64,       # uniform samples for both renderings of those rays
+      bank_rays=65536,      # random rays rendered once by the frozen Lo-NeRF
+      start_step=0,
+  ))
+  cfg.init_from_lo = False  # start from Lo-NeRF's weights except the input layers
+  return cfg
+
+
+def base_config() -> ml_collections.ConfigDict:
+  """All fields, set to the paper's full-resolution Blender protocol."""
+  c = ml_collections.ConfigDict()
+  c.seed = 0
+  c.stages = "lo,ray,hi"
+  # Training-time budget in seconds for the whole pipeline (0: none). When set,
+  # each needed stage gets max_seconds = budget_s * its share (normalised over
+  # the stages the run needs), so NeRF (hi alone) and HALO get the same time.
+  c.budget_s = 0.0
+  c.budget_shares = ml_collections.ConfigDict(dict(lo=0.25, ray=0.10, hi=0.65))
+  c.data = ml_collections.ConfigDict(dict(
+      kind="blender",          # 'blender' | 'procedural'
+      root="",                 # scene folder, e.g. ../shared/data/nerf_synthetic/lego
+      factor=2,                # integer downscale (2: 400x400, 8: 100x100)
+      train_views="all",       # 'all', 'every:K', a list of names, or 'r_2,r_16,...'
+      test_views="all",
+      test_split="test",
+      near=2.0,
+      far=6.0,
+      white_background=True,
+      procedural_size=100,     # image size of the generated scene
+  ))
+  c.lo = _nerf_stage(L=5, scale=32, use_viewdirs=False, steps=8000, num_samples=128,
+                     sampler="stratified")
+  c.hi = _nerf_stage(L=10, scale=1, use_viewdirs=True, steps=80000, num_samples=128,
+                     sampler="depth_guided")
+  c.hi.lr_final = 5e-5
+  c.hi.precrop_steps = 0
+  c.hi.empty.weight = 0.1
+  c.ray = ml_collections.ConfigDict(_train(24000, 4096, 5e-4, 5e-6))
+  c.ray.encoding = ml_collections.ConfigDict(dict(L=10, scale=32.0))
+  c.ray.model = _model()
+  c.ray.radius = 0.0              # sphere of the ray parametrisation (0: camera radius)
+  c.ray.depth_target = "max_weight"  # or 'expected' (Lo-NeRF's normalised expected depth)
+  c.ray.random_fraction = 0.5     # share of each batch drawn from random hemisphere rays
+  c.ray.bank_rays = 262144        # random rays rendered once by the frozen Lo-NeRF
+  c.ray.lo_samples = 0            # samples for the Lo-NeRF targets (0: Lo's own count)
+  c.eval = ml_collections.ConfigDict(dict(
+      chunk=4096,          # rays per jitted rendering call
+      curve_views=5,       # held-out views used for the PSNR curve (final eval uses all)
+      save_images=True,
+  ))
+  return c
+
+
+def cpu_sized(c: ml_collections.ConfigDict, budget_s: float) -> ml_collections.ConfigDict:
+  """Shrinks a config to fit `budget_s` seconds of training on 2 CPU cores.
+
+  The HALO stages share the budget as `budget_shares` says. The Lo field only
+  has to represent low frequencies, so it gets a small MLP and 64 samples; the
+  ray field is one MLP query per ray; Hi-NeRF gets the NeRF baseline's 128x6
+  MLP but only 32 samples, placed by the ray field. Steps are caps that the
+  time budget normally reaches first; the learning rate decays over them.
+  """
+  c.budget_s = budget_s
+  c.eval.chunk = 8192
+  c.lo.model.update(width=128, depth=4, skips=())
+  c.lo.sampler.num_samples = 64
+  c.lo.update(batch_rays=1024, steps=3000, precrop_steps=200, checkpoint_every=500, log_every=50)
+  c.ray.model.update(width=128, depth=4, skips=())
+  c.ray.update(batch_rays=2048, steps=2000, bank_rays=32768, checkpoint_every=500, log_every=50)
+  c.hi.model.update(width=128, depth=6, skips=(4,))
+  c.hi.sampler.num_samples = 32
+  c.hi.empty.update(num_rays=256, num_samples=32, bank_rays=32768)
+  c.hi.update(batch_rays=1024, steps=6000, checkpoint_every=500,
+              log_every=50)
+  return c
+
+
+def as_nerf_baseline(c: ml_collections.ConfigDict, num_samples: int = 64) -> ml_collections.ConfigDict:
+  """The vanilla-NeRF baseline: the Hi stage alone, stratified samples, no regulariser."""
+  c.stages = "hi"
+  c.hi.sampler.kind = "stratified"
+  c.hi.sampler.num_samples = num_samples
+  c.hi.empty.weight = 0.0
+  c.hi.init_from_lo = False
+  c.hi.precrop_steps = c.lo.precrop_steps
+  return c

@@ -1,0 +1,63 @@
+"""Held-out evaluation: render views, score PSNR / SSIM, write images and a summary."""
+import json
+import os
+
+import imageio.v3 as iio
+import jax.numpy as jnp
+import numpy as np
+
+from halo_jax import metrics
+from halo_jax.stages import field
+
+
+def depth_to_image(depth, near, far):
+  """Depth [H, W] -> uint8 [H, W, 3] grey image, near white, far black."""
+  x = 1.0 - np.clip((depth - near) / (far - near), 0.0, 1.0)
+  x = np.where(depth > 0, x, 0.0)
+  return np.repeat((x * 255).round().astype(np.uint8)[..., None], 3, -1)
+
+
+def render_views(eval_fn, views, chunk, indices=None):
+  """Renders views (or views[indices]); returns dict of numpy [V, H, W, ...]."""
+  o, d = views.rays()
+  if indices is not None:
+    o, d = o[indices], d[indices]
+  return field.render_chunked(eval_fn, o, d, chunk)
+
+
+def score(rgb, target):
+  """Per-view PSNR and SSIM: rgb, target [V, H, W, 3] -> two lists of V floats."""
+  rgb = jnp.clip(jnp.asarray(rgb), 0.0, 1.0)
+  target = jnp.asarray(target)
+  return ([float(x) for x in metrics.psnr(rgb, target)],
+          [float(x) for x in metrics.ssim(rgb, target)])
+
+
+def heldout_psnr(eval_fn, views, chunk, num_views):
+  """Mean PSNR over the first `num_views` held-out views (for training curves)."""
+  idx = np.arange(min(num_views, len(views.names)))
+  out = render_views(eval_fn, views, chunk, idx)
+  psnr, _ = score(out["rgb"], views.images[idx])
+  return float(np.mean(psnr))
+
+
+def evaluate(eval_fn, views, chunk, out_dir, near, far, save_images=True):
+  """Renders every held-out view, writes <out_dir>/metrics.json (+ images).
+
+  Returns {'psnr', 'ssim', 'per_view': {name: {'psnr', 'ssim'}}}.
+  """
+  out = render_views(eval_fn, views, chunk)
+  psnr, ssim = score(out["rgb"], views.images)
+  result = {"psnr": float(np.mean(psnr)), "ssim": float(np.mean(ssim)),
+            "num_views": len(psnr),
+            "per_view": {n: {"psnr": p, "ssim": s} for n, p, s in zip(views.names, psnr, ssim)}}
+  os.makedirs(out_dir, exist_ok=True)
+  with open(os.path.join(out_dir, "metrics.json"), "w") as f:
+    json.dump(result, f, indent=1)
+  if save_images:
+    for i, name in enumerate(views.names):
+      rgb = (np.clip(out["rgb"][i], 0, 1) * 255).round().astype(np.uint8)
+      gt = (views.images[i] * 255).round().astype(np.uint8)
+      dep = depth_to_image(out["depth"][i], near, far)
+      iio.imwrite(os.path.join(out_dir, f"{name}.png"), np.concatenate([gt, rgb, dep], 1))
+  return result

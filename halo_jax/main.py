@@ -1,0 +1,35 @@
+"""Launches HALO's stages.
+
+  python -m halo_jax.main --config=configs/blender.py:lego_8view \
+      --workdir=DIR --config.data.root=PATH [--config.stages=lo,ray,hi]
+
+This file is kept short: the logic lives in `halo_jax.stages`.
+"""
+import json
+
+from absl import app, flags, logging
+from ml_collections import config_flags
+
+from halo_jax import stages
+
+FLAGS = flags.FLAGS
+config_flags.DEFINE_config_file("config", None, "Config file (path[:variant]).",
+                                lock_config=True)
+flags.DEFINE_string("workdir", None, "Folder for checkpoints, logs and renders.")
+flags.mark_flags_as_required(["config", "workdir"])
+
+
+def main(argv):
+  del argv
+  logging.set_verbosity(logging.WARNING)  # orbax logs every save at INFO
+  infos = stages.run(FLAGS.config, FLAGS.workdir)
+  print(f"{'stage':6} {'steps':>6} {'train s':>8} {'PSNR':>7} {'SSIM':>6}")
+  for name, info in infos.items():
+    ev = info.get("eval", {})
+    print(f"{name:6} {info['step']:6d} {info['wall_s']:8.1f} {ev.get('psnr', float('nan')):7.2f} "
+          f"{ev.get('ssim', float('nan')):6.3f}")
+  print(json.dumps({"workdir": FLAGS.workdir}))
+
+
+if __name__ == "__main__":
+  app.run(main)

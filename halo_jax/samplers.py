@@ -1,0 +1,100 @@
+"""Where to put samples along a ray: stratified, hierarchical, depth-guided.
+
+Every sampler returns sorted interval edges `t_edges` [..., N + 1]; the model
+is queried at the midpoints and `render.volume_render` composites the N
+intervals.
+"""
+import jax
+import jax.numpy as jnp
+
+
+def stratified(key, near, far, num_samples: int, randomized: bool = True):
+  """N intervals of equal length in [near, far], jittered as one when training.
+
+  Edges are jittered by one shared uniform offset per interval edge (NeRF's
+  stratified sampling); the first and last edge stay at near and far.
+
+  Args:
+    key: PRNG key (unused when randomized is False).
+    near, far: [...] bounds per ray (or scalars broadcast to the batch).
+    num_samples: N.
+    randomized: jitter the interior edges.
+
+  Returns:
+    t_edges [..., N + 1], sorted, with t_edges[..., 0] = near, [..., -1] = far.
+  """
+  near = jnp.asarray(near, jnp.float32)
+  far = jnp.asarray(far, jnp.float32)
+  shape = jnp.broadcast_shapes(near.shape, far.shape)
+  u = jnp.linspace(0.0, 1.0, num_samples + 1)
+  u = jnp.broadcast_to(u, shape + (num_samples + 1,))
+  if randomized:
+    jitter = jax.random.uniform(key, shape + (num_samples - 1,), minval=-0.5, maxval=0.5)
+    interior = u[..., 1:-1] + jitter / num_samples
+    u = jnp.concatenate([u[..., :1], interior, u[..., -1:]], axis=-1)
+  return near[..., None] + (far - near)[..., None] * u
+
+
+def depth_window(depth, near, far, radius: float, near_only: bool = False):
+  """The interval the depth-guided sampler fills, DONeRF-style.
+
+  [max(near, d - r (far - near)), min(far, d + r (far - near))]. `near_only`
+  keeps far as the upper bound (the authors' variant). A depth outside
+  [near, far] is clipped into it first; a NaN depth gives the whole [near, far].
+
+  Args:
+    depth: [...] predicted depth.
+    near, far: scalars or [...].
+    radius: r, as a fraction of far - near.
+    near_only: tighten only the near side.
+
+  Returns:
+    (lo, hi), each [...].
+  """
+  near = jnp.asarray(near, jnp.float32)
+  far = jnp.asarray(far, jnp.float32)
+  finite = jnp.isfinite(depth)
+  d = jnp.clip(jnp.where(finite, depth, near), near, far)
+  half = radius * (far - near)
+  lo = jnp.where(finite, jnp.maximum(near, d - half), near)
+  hi = far if near_only else jnp.where(finite, jnp.minimum(far, d + half), far)
+  lo, hi = jnp.broadcast_arrays(lo, hi)
+  return lo, hi
+
+
+def depth_guided(key, depth, near, far, num_samples: int, radius: float,
+                 near_only: bool = False, randomized: bool = True):
+  """Stratified samples inside `depth_window`; returns t_edges [..., N + 1]."""
+  lo, hi = depth_window(depth, near, far, radius, near_only)
+  return stratified(key, lo, hi, num_samples, randomized)
+
+
+def hierarchical(key, t_edges, weights, num_samples: int, randomized: bool = True,
+                 eps: float = 1e-5):
+  """Inverse-CDF resampling of a piecewise-constant weight distribution (NeRF).
+
+  Args:
+    key: PRNG key.
+    t_edges: [..., M + 1] edges of the coarse intervals.
+    weights: [..., M] coarse weights (need not sum to 1).
+    num_samples: N, new intervals.
+    randomized: uniform u instead of evenly spaced u.
+    eps: weight floor so a ray with all-zero weights falls back to uniform.
+
+  Returns:
+    t_edges [..., N + 1] drawn from the distribution, sorted, inside the
+    coarse range.
+  """
+  weights = jax.lax.stop_gradient(weights) + eps
+  pdf = weights / weights.sum(-1, keepdims=True)
+  cdf = jnp.concatenate([jnp.zeros_like(pdf[..., :1]),
+                         jnp.minimum(1.0, jnp.cumsum(pdf, -1))], -1)
+  cdf = cdf.at[..., -1].set(1.0)
+  shape = weights.shape[:-1] + (num_samples + 1,)
+  if randomized:
+    u = jnp.sort(jax.random.uniform(key, shape), axis=-1)
+  else:
+    u = jnp.broadcast_to(jnp.linspace(0.0, 1.0, num_samples + 1), shape)
+  interp = jnp.vectorize(jnp.interp, signature="(n),(m),(m)->(n)")
+  t = interp(u, cdf, jax.lax.stop_gradient(t_edges))
+  return jnp.sort(t, axis=-1)

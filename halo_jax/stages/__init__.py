@@ -1,0 +1,99 @@
+"""HALO's stages and the driver that runs a stage list, handing states along.
+
+Stage order is fixed (lo -> ray -> hi); `config.stages` picks which ones run
+now. A stage that a later one needs but that is not in the list is loaded
+from the workdir, where an earlier launch left it.
+"""
+import copy
+import json
+import os
+
+import jax.numpy as jnp
+
+from halo_jax import checkpoint, datasets, models
+from halo_jax.stages import loop, nerf, ray
+from halo_jax.stages.state import StageState, load, save, stage_dir
+
+ORDER = ("lo", "ray", "hi")
+
+
+def parse_stages(spec) -> tuple:
+  names = tuple(s.strip() for s in (spec.split(",") if isinstance(spec, str) else spec) if s.strip())
+  bad = [s for s in names if s not in ORDER]
+  if bad or not names:
+    raise ValueError(f"config.stages={spec!r}: each stage must be one of {ORDER}")
+  return tuple(s for s in ORDER if s in names)
+
+
+def needed(config, stage_list=None) -> tuple:
+  """Every stage the requested ones (default config.stages) depend on, in order."""
+  want = set(parse_stages(config.stages if stage_list is None else stage_list))
+  if "hi" in want:
+    if config.hi.sampler.kind == "depth_guided":
+      want.add("ray")
+    if config.hi.empty.weight > 0 or config.hi.init_from_lo:
+      want.add("lo")
+  if "ray" in want:
+    want.add("lo")
+  return tuple(s for s in ORDER if s in want)
+
+
+def with_budget(config):
+  """A copy of config whose stages' max_seconds split config.budget_s by share.
+
+  Shares are normalised over the stages the whole method needs (those Hi
+  needs), so a launch of one stage gets the same time as in a full run, and
+  the NeRF baseline (Hi alone) gets all of it.
+  """
+  config = copy.deepcopy(config)
+  if config.budget_s > 0:
+    names = needed(config, "hi")
+    total = sum(config.budget_shares[n] for n in names)
+    for n in names:
+      config[n].max_seconds = config.budget_s * config.budget_shares[n] / total
+  return config
+
+
+def _params_like(config, name, dataset):
+  if name == "ray":
+    m = models.ray_field_from_config(config.ray, dataset.near, dataset.far)
+    return ray.init_params(m, config.seed)
+  return nerf.init_params(models.nerf_from_config(config[name]), config.seed)
+
+
+def _info_path(workdir, name):
+  return os.path.join(stage_dir(workdir, name), "final", "info.json")
+
+
+def run(config, workdir: str, dataset=None) -> dict:
+  """Runs `config.stages` in `workdir`; returns {stage: info} for the stages run.
+
+  info holds the stage's training seconds ('wall_s'), steps, skipped steps and,
+  for NeRF stages, the held-out evaluation.
+  """
+  config = with_budget(config)
+  dataset = dataset or datasets.load(config.data, workdir)
+  run_now = parse_stages(config.stages)
+  log = loop.MetricsLog(workdir)
+  states, infos, wall = {}, {}, 0.0
+  for name in needed(config):
+    if name not in run_now:
+      states[name] = load(workdir, name, _params_like(config, name, dataset))
+      with open(_info_path(workdir, name)) as f:
+        wall += json.load(f)["wall_s"]
+      continue
+    if name == "ray":
+      state, info = ray.train(config, dataset, workdir, states["lo"], log, wall)
+    else:
+      state, info = nerf.train(config, dataset, workdir, name, states.get("lo"),
+                               states.get("ray"), log, wall)
+    wall += info["wall_s"]
+    info.update(step=int(state.step), cumulative_wall_s=wall)
+    save(workdir, state)
+    with open(_info_path(workdir, name), "w") as f:
+      json.dump(info, f, indent=1)
+    states[name], infos[name] = state, info
+  return infos
+
+
+__all__ = ["StageState", "run", "parse_stages", "needed", "ORDER", "load", "save"]

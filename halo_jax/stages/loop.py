@@ -1,0 +1,156 @@
+"""The training loop every stage shares: jitted guarded steps, checkpoints, logs.
+
+A stage supplies a pure `loss_fn(params, data, key, step) -> (loss, aux)`; the
+loop owns the optimiser, the per-step PRNG key (`fold_in(seed, step)`, so a
+resumed run draws exactly what an uninterrupted one would), the time budget,
+held-out evaluations, checkpoints and `metrics.jsonl`.
+"""
+import copy
+import json
+import os
+import time
+from typing import Callable, Optional
+
+import jax
+import jax.numpy as jnp
+import optax
+import tqdm
+
+from halo_jax import checkpoint
+
+
+class MetricsLog:
+  """Appends one JSON object a line to `<workdir>/metrics.jsonl`."""
+
+  def __init__(self, workdir: str):
+    os.makedirs(workdir, exist_ok=True)
+    self.path = os.path.join(workdir, "metrics.jsonl")
+
+  def write(self, **record):
+    with open(self.path, "a") as f:
+      f.write(json.dumps(record) + "\n")
+
+
+def optimizer(cfg) -> optax.GradientTransformation:
+  """Adam with NeRF's log-linear decay from lr_init to lr_final over `steps`."""
+  schedule = optax.exponential_decay(cfg.lr_init, transition_steps=max(cfg.steps, 1),
+                                     decay_rate=cfg.lr_final / cfg.lr_init)
+  return optax.adam(schedule)
+
+
+def minus_seconds(cfg, seconds):
+  """A copy of a stage config whose time cap leaves room for `seconds` the stage
+  already spent outside the loop (e.g. rendering Lo-NeRF targets)."""
+  cfg = copy.deepcopy(cfg)
+  if cfg.max_seconds:
+    cfg.max_seconds = max(cfg.max_seconds - seconds, 1e-3)
+  return cfg
+
+
+def _all_finite(tree):
+  leaves = jax.tree_util.tree_leaves(tree)
+  return jnp.all(jnp.stack([jnp.all(jnp.isfinite(x)) for x in leaves]))
+
+
+def make_step(loss_fn: Callable, tx: optax.GradientTransformation):
+  """One jitted training step with a guard against non-finite losses or gradients.
+
+  A step whose loss or gradients are not finite leaves params and optimiser
+  state untouched (and is counted); the step counter still advances so the
+  next step draws fresh randomness.
+  """
+  def step(train, data, base_key):
+    key = jax.random.fold_in(base_key, train["step"])
+    (loss, aux), grads = jax.value_and_grad(loss_fn, has_aux=True)(
+        train["params"], data, key, train["step"])
+    ok = jnp.isfinite(loss) & _all_finite(grads)
+    updates, opt_state = tx.update(grads, train["opt_state"], train["params"])
+    params = optax.apply_updates(train["params"], updates)
+    keep = lambda new, old: jax.tree_util.tree_map(lambda a, b: jnp.where(ok, a, b), new, old)
+    train = dict(params=keep(params, train["params"]),
+                 opt_state=keep(opt_state, train["opt_state"]),
+                 step=train["step"] + 1,
+                 skipped=train["skipped"] + (1 - ok.astype(jnp.int32)))
+    return train, loss, aux
+  return jax.jit(step, donate_argnums=(0,))
+
+
+def train(name: str, cfg, workdir: str, params, loss_fn: Callable, data, seed: int,
+          eval_fn: Optional[Callable] = None, log: Optional[MetricsLog] = None,
+          wall_offset: float = 0.0):
+  """Trains `params` on `loss_fn` for cfg.steps (or cfg.max_seconds) and returns them.
+
+  Args:
+    name: stage name, used for the checkpoint folder and log records.
+    cfg: the stage config (steps, lr_*, max_seconds, *_every).
+    workdir: run folder; checkpoints go to <workdir>/<name>/checkpoints.
+    params: initial parameters (ignored if a checkpoint exists: training resumes).
+    loss_fn: (params, data, key, step) -> (loss, aux dict of scalars).
+    data: pytree of device arrays the loss reads (rays, targets, ...).
+    seed: base PRNG seed.
+    eval_fn: params -> dict of held-out metrics (e.g. {'psnr': ...}); its time
+      is not counted as training time.
+    log: metrics.jsonl writer.
+    wall_offset: training seconds spent by earlier stages of the same method,
+      added to wall_s in the log so curves of a whole pipeline line up.
+
+  Returns:
+    (params, step, info) with info = {'wall_s', 'skipped'}.
+  """
+  log = log or MetricsLog(workdir)
+  tx = optimizer(cfg)
+  step_fn = make_step(loss_fn, tx)
+  train_state = dict(params=params, opt_state=tx.init(params), step=jnp.int32(0),
+                     skipped=jnp.int32(0))
+  mngr = checkpoint.manager(os.path.join(workdir, name, "checkpoints"))
+  restored = checkpoint.restore_latest(mngr, dict(train_state, wall_s=0.0))
+  wall_s = 0.0
+  if restored is not None:
+    wall_s = float(restored.pop("wall_s"))
+    train_state = restored
+  start = int(train_state["step"])
+  base_key = jax.random.PRNGKey(seed)
+  last_eval_s, last_log, last_eval_step = wall_s, start, None
+
+  def evaluate(step):
+    nonlocal last_eval_step
+    last_eval_step = step
+    metrics = {k: float(v) for k, v in eval_fn(train_state["params"]).items()}
+    log.write(stage=name, step=step, wall_s=wall_offset + wall_s, heldout=True, **metrics)
+    return metrics
+
+  bar = tqdm.tqdm(total=cfg.steps, initial=start, desc=name, dynamic_ncols=True,
+                  mininterval=1.0)
+  step = start
+  for step in range(start + 1, cfg.steps + 1):
+    if cfg.max_seconds and wall_s >= cfg.max_seconds:
+      step -= 1
+      break
+    t0 = time.perf_counter()
+    train_state, loss, aux = step_fn(train_state, data, base_key)
+    loss = float(loss)  # waits for the step, so wall_s measures compute
+    wall_s += time.perf_counter() - t0
+    bar.update(1)
+    if step % cfg.log_every == 0 or step == cfg.steps:
+      record = {k: float(v) for k, v in aux.items()}
+      log.write(stage=name, step=step, wall_s=wall_offset + wall_s, loss=loss,
+                skipped=int(train_state["skipped"]), **record)
+      bar.set_postfix(loss=f"{loss:.4g}", psnr=f"{record.get('psnr', float('nan')):.2f}")
+      last_log = step
+    if step % cfg.checkpoint_every == 0:
+      checkpoint.save(mngr, step, dict(train_state, wall_s=wall_s))
+    due = (cfg.eval_every and step % cfg.eval_every == 0) or (
+        cfg.eval_every_s and wall_s - last_eval_s >= cfg.eval_every_s)
+    if due and eval_fn is not None:
+      evaluate(step)
+      last_eval_s = wall_s
+  bar.close()
+  if last_log != step:
+    log.write(stage=name, step=step, wall_s=wall_offset + wall_s,
+              skipped=int(train_state["skipped"]))
+  if mngr.latest_step() != step:
+    checkpoint.save(mngr, step, dict(train_state, wall_s=wall_s))
+  if eval_fn is not None and (cfg.eval_every or cfg.eval_every_s) and last_eval_step != step:
+    evaluate(step)
+  return train_state["params"], step, {"wall_s": wall_s,
+                                       "skipped": int(train_state["skipped"])}

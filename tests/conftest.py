@@ -1,0 +1,39 @@
+"""Shared fixtures: a tiny config on the procedural scene, sized for CPU tests."""
+import os
+
+import pytest
+
+from halo_jax import defaults
+
+SHARED_DATA = os.path.join(os.path.dirname(__file__), "..", "..", "shared", "data")
+
+
+def tiny_config():
+  c = defaults.base_config()
+  c.data.kind = "procedural"
+  c.data.factor = 2          # 32x32 images
+  c.data.procedural_size = 64
+  c.data.train_views = "r_0,r_13,r_26,r_39"
+  c.data.test_views = "r_0,r_100"
+  c.eval.chunk = 1024
+  c.eval.curve_views = 1
+  for name in ("lo", "hi"):
+    c[name].model.update(width=32, depth=2, skips=())
+    c[name].sampler.update(num_samples=8, num_coarse=8)
+    c[name].update(batch_rays=64, steps=6, checkpoint_every=3, log_every=2, eval_every=3,
+                   precrop_steps=2)
+  c.ray.model.update(width=32, depth=2, skips=())
+  c.ray.update(batch_rays=64, steps=6, checkpoint_every=3, log_every=2, bank_rays=512)
+  c.hi.empty.update(num_rays=16, num_samples=8, bank_rays=512)
+  return c
+
+
+@pytest.fixture
+def config():
+  return tiny_config()
+
+
+@pytest.fixture(scope="session")
+def scene_root(tmp_path_factory):
+  from halo_jax.datasets import procedural
+  return procedural.generate(str(tmp_path_factory.mktemp("scene")), size=64)

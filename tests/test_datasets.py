@@ -1,0 +1,93 @@
+import json
+import os
+import shutil
+
+import numpy as np
+import pytest
+
+from halo_jax import datasets
+from halo_jax.datasets import blender, procedural
+from conftest import SHARED_DATA, tiny_config
+
+LEGO = os.path.join(SHARED_DATA, "nerf_synthetic", "lego")
+
+
+def test_procedural_scene_is_deterministic_and_blender_layout(tmp_path, scene_root):
+  root = procedural.generate(str(tmp_path / "again"), size=64)
+  a = blender.load_views(scene_root, "train", 1, ["r_5"])
+  b = blender.load_views(root, "train", 1, ["r_5"])
+  np.testing.assert_array_equal(a.images, b.images)
+  assert a.images.shape == (1, 64, 64, 3)
+  assert 0.0 < a.images.mean() < 1.0
+
+
+def test_procedural_ground_truth_is_analytic():
+  # A ray straight down through the big sphere's top hits it at z = 0.1 + 0.75.
+  rgba, depth = procedural.render_rays(np.array([[0.0, 0.0, 4.0]]), np.array([[0.0, 0.0, -1.0]]))
+  np.testing.assert_allclose(depth, [4.0 - 0.85], atol=1e-12)
+  assert rgba[0, 3] == 1.0
+  rgba, depth = procedural.render_rays(np.array([[0.0, 0.0, 4.0]]), np.array([[0.0, 0.0, 1.0]]))
+  assert rgba[0, 3] == 0.0
+
+
+def test_load_selects_views_and_factor(scene_root):
+  c = tiny_config()
+  c.data.root = scene_root
+  ds = datasets.load(c.data)
+  assert ds.train.names == ("r_0", "r_13", "r_26", "r_39")
+  assert ds.train.images.shape == (4, 32, 32, 3)
+  assert ds.test.names == ("r_0", "r_100")
+  np.testing.assert_allclose(ds.radius, procedural.RADIUS, rtol=1e-5)
+
+
+def _copy_scene(scene_root, tmp_path):
+  root = str(tmp_path / "scene")
+  shutil.copytree(scene_root, root)
+  return root
+
+
+def test_missing_transforms_names_the_file(tmp_path):
+  with pytest.raises(datasets.DataError, match="transforms_train.json: file not found"):
+    blender.load_views(str(tmp_path), "train")
+
+
+def test_malformed_json_names_the_file(scene_root, tmp_path):
+  root = _copy_scene(scene_root, tmp_path)
+  with open(os.path.join(root, "transforms_train.json"), "w") as f:
+    f.write("{ not json")
+  with pytest.raises(datasets.DataError, match="transforms_train.json: malformed JSON"):
+    blender.load_views(root, "train")
+
+
+def test_unknown_view_and_nan_pose(scene_root, tmp_path):
+  with pytest.raises(datasets.DataError, match=r"views \['r_999'\]"):
+    blender.load_views(scene_root, "train", 1, ["r_999"])
+  root = _copy_scene(scene_root, tmp_path)
+  path = os.path.join(root, "transforms_train.json")
+  meta = json.load(open(path))
+  meta["frames"][0]["transform_matrix"][0][3] = float("nan")
+  json.dump(meta, open(path, "w"))
+  with pytest.raises(datasets.DataError, match="'transform_matrix' of r_0 is not a finite"):
+    blender.load_views(root, "train", 1, ["r_0"])
+
+
+def test_missing_image_names_the_file(scene_root, tmp_path):
+  root = _copy_scene(scene_root, tmp_path)
+  os.remove(os.path.join(root, "train", "r_3.png"))
+  with pytest.raises(datasets.DataError, match=r"r_3\.png: image file not found"):
+    blender.load_views(root, "train", 1, ["r_3"])
+
+
+@pytest.mark.skipif(not os.path.isdir(LEGO), reason="../shared/data lego not present")
+def test_lego_eight_views_factor_8():
+  from configs import blender as blender_configs
+  c = blender_configs.get_config("lego_8view_cpu")
+  c.data.root = LEGO
+  ds = datasets.load(c.data)
+  assert ds.train.names == ("r_2", "r_16", "r_93", "r_55", "r_73", "r_86", "r_26", "r_75")
+  assert ds.train.images.shape == (8, 100, 100, 3)
+  assert ds.test.names[:3] == ("r_0", "r_8", "r_16") and len(ds.test.names) == 25
+  np.testing.assert_allclose(ds.train.focal, 1111.1110311937682 / 8, rtol=1e-6)
+  np.testing.assert_allclose(ds.radius, 4.031, atol=0.01)
+  # RGBA on white: corners are background.
+  np.testing.assert_allclose(ds.train.images[:, 0, 0], 1.0, atol=1e-6)

@@ -1,0 +1,57 @@
+import numpy as np
+import jax
+import jax.numpy as jnp
+
+from halo_jax import render
+
+
+def slab(c, a, b, n):
+  """Constant density c on [a, b] split in n intervals; colour red."""
+  t = jnp.linspace(a, b, n + 1)
+  return jnp.full((n,), c), jnp.tile(jnp.array([[1.0, 0.0, 0.0]]), (n, 1)), t
+
+
+def test_constant_slab_opacity_and_depth_closed_form():
+  c, a, b = 0.7, 2.0, 6.0
+  sigma, rgb, t = slab(c, a, b, 4096)
+  out = render.volume_render(sigma, rgb, t, white_background=True)
+  acc = 1 - np.exp(-c * (b - a))
+  np.testing.assert_allclose(out["acc"], acc, rtol=1e-5)
+  # E[t] over the slab: int_a^b t c e^{-c (t-a)} dt.
+  L = b - a
+  depth = a * acc + (1 - np.exp(-c * L) * (1 + c * L)) / c
+  np.testing.assert_allclose(out["depth"], depth, rtol=1e-4)
+  # Red over white: (1, 1 - acc, 1 - acc).
+  np.testing.assert_allclose(out["rgb"], [1.0, 1 - acc, 1 - acc], rtol=1e-5)
+
+
+def test_weights_exact_for_few_intervals():
+  sigma = jnp.array([0.5, 2.0, 1.0])
+  t = jnp.array([0.0, 1.0, 1.5, 3.0])
+  w, t_last = render.compute_weights(sigma, t)
+  d = np.diff(np.asarray(t))
+  od = np.asarray(sigma) * d
+  T = np.exp(-np.concatenate([[0], np.cumsum(od)[:-1]]))
+  np.testing.assert_allclose(w, T * (1 - np.exp(-od)), rtol=1e-6)
+  np.testing.assert_allclose(t_last, np.exp(-od.sum()), rtol=1e-6)
+
+
+def test_opaque_first_interval_and_empty_ray():
+  sigma = jnp.array([1e10, 1e10, 0.0])
+  t = jnp.array([2.0, 3.0, 4.0, 1e10])
+  rgb = jnp.array([[0.2, 0.4, 0.6], [1.0, 1.0, 1.0], [0.0, 0.0, 0.0]])
+  out = render.volume_render(sigma, rgb, t)
+  np.testing.assert_allclose(out["acc"], 1.0)
+  np.testing.assert_allclose(out["rgb"], [0.2, 0.4, 0.6], rtol=1e-6)
+  np.testing.assert_allclose(out["depth_max"], 2.5)
+  empty = render.volume_render(jnp.zeros(3), rgb, t)
+  np.testing.assert_allclose(empty["acc"], 0.0)
+  np.testing.assert_allclose(empty["rgb"], [1.0, 1.0, 1.0])
+  assert render.normalized_depth(empty["depth"], empty["acc"]) == 0.0
+
+
+def test_gradients_finite_for_stiff_density():
+  t = jnp.array([2.0, 2.0, 3.0, 1e10])  # a zero-length and an "infinite" interval
+  g = jax.grad(lambda s: render.volume_render(s, jnp.ones((3, 3)) * 0.5, t)["rgb"].sum())(
+      jnp.array([1e10, 1e-3, 5.0]))
+  assert np.all(np.isfinite(np.asarray(g)))
