@@ -8,7 +8,9 @@ for `config.budget_s` seconds of training (held-out evaluations for the curves
 are not counted), evaluates both on the same held-out views and writes
 DIR/results.json, DIR/results.md and DIR/psnr_vs_time.png. With
 --all_views_reference it also trains NeRF on every training view for the
-same budget (the upper reference).
+same budget (the upper reference). A killed run, launched again with the same
+flags, resumes each method from its last checkpoint (finished stages are not
+retrained: their final states are in DIR/<method>).
 """
 import copy
 import json
@@ -29,6 +31,8 @@ config_flags.DEFINE_config_file("config", None, "HALO config (path[:variant]).",
 flags.DEFINE_string("workdir", None, "Output folder.")
 flags.DEFINE_bool("all_views_reference", False, "Also train NeRF on all training views.")
 flags.DEFINE_integer("curve_points", 8, "Held-out evaluations per method for the curve.")
+flags.DEFINE_list("methods", None, "Train only these methods (nerf, halo, nerf_all_views); "
+                  "results of the others already in DIR/results.json are kept.")
 flags.mark_flags_as_required(["config", "workdir"])
 
 
@@ -90,11 +94,17 @@ def main(argv):
   logging.set_verbosity(logging.WARNING)
   config = FLAGS.config
   os.makedirs(FLAGS.workdir, exist_ok=True)
+  results_path = os.path.join(FLAGS.workdir, "results.json")
   results = {}
+  if FLAGS.methods and os.path.exists(results_path):
+    with open(results_path) as f:
+      results = json.load(f)
   for name, cfg in methods(config, FLAGS.all_views_reference).items():
+    if FLAGS.methods and name not in FLAGS.methods:
+      continue
     dataset = datasets.load(cfg.data, os.path.join(FLAGS.workdir, name))
     results[name] = run_method(cfg, os.path.join(FLAGS.workdir, name), dataset)
-    with open(os.path.join(FLAGS.workdir, "results.json"), "w") as f:
+    with open(results_path, "w") as f:
       json.dump(results, f, indent=1)
   print(write_report(results, FLAGS.workdir, len(dataset.test.names)))
 

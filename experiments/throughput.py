@@ -88,8 +88,9 @@ def main(argv):
   peak = matmul_peak()
   results = {"peak_gflops": peak, "device": str(jax.devices()[0]), "steps": {}}
 
-  def nerf_step(name, cfg, guide=None, lo_params=None):
-    model = models.nerf_from_config(cfg)
+  def nerf_step(label, config, name, guide=None):
+    cfg = config[name]
+    model = models.nerf_from_config(config, name)
     data = dict(base)
     guide_model = None
     if cfg.sampler.kind == "depth_guided":
@@ -104,9 +105,9 @@ def main(argv):
                                          if cfg.sampler.kind == "hierarchical" else 0)
     r = step_throughput(lf, cfg, nerf.init_params(model, 0), jax.device_put(data),
                         cfg.batch_rays, samples)
-    results["steps"][name] = r
+    results["steps"][label] = r
 
-  nerf_step("lo", c.lo)
+  nerf_step("lo", c, "lo")
   rf = models.ray_field_from_config(c.ray, near, far)
   rf_params = ray.init_params(rf, 0)
   rdata = {"train": {"origins": o, "dirs": d, "depth": np.full(n_data, 4.0, np.float32),
@@ -117,10 +118,10 @@ def main(argv):
                          n_train=c.ray.batch_rays - n_rand, n_random=n_rand)
   results["steps"]["ray"] = step_throughput(lf, c.ray, rf_params, jax.device_put(rdata),
                                             c.ray.batch_rays, 1)
-  nerf_step("hi", c.hi, guide=(rf, rf_params))
-  nerf_step("nerf", defaults.as_nerf_baseline(c.copy_and_resolve_references()).hi)
+  nerf_step("hi", c, "hi", guide=(rf, rf_params))
+  nerf_step("nerf", defaults.as_nerf_baseline(c.copy_and_resolve_references()), "hi")
   # Held-out rendering with the Hi field (forward only).
-  model = models.nerf_from_config(c.hi)
+  model = models.nerf_from_config(c, "hi")
   ev = field.make_eval_fn(model, c.hi.sampler, near=near, far=far, white_background=True,
                           guide_model=rf, radius=4.03)
   hp = nerf.init_params(model, 0)

@@ -29,6 +29,9 @@ class NeRFMLP(nn.Module):
 
   Attributes:
     pos_freqs, pos_scale: L and s of the point encoding (Lo or Hi P.E.).
+    base_freqs, base_scale: when base_freqs > 0, a second (Lo) P.E. placed
+      before the first, so a Hi-NeRF can start as an exact copy of a Lo-NeRF
+      (see stages.nerf.transfer_from_lo).
     width, depth, skips: trunk size.
     use_viewdirs: condition colour on the view direction (Hi-NeRF); Lo-NeRF
       leaves it out so its colour is view-independent.
@@ -37,6 +40,8 @@ class NeRFMLP(nn.Module):
   """
   pos_freqs: int = 10
   pos_scale: float = 1.0
+  base_freqs: int = 0
+  base_scale: float = 1.0
   width: int = 256
   depth: int = 8
   skips: Sequence[int] = (4,)
@@ -51,6 +56,9 @@ class NeRFMLP(nn.Module):
     Returns: sigma [...] >= 0 and rgb [..., 3] in (0, 1).
     """
     x = encoding.positional_encoding(points, self.pos_freqs, self.pos_scale)
+    if self.base_freqs > 0:
+      x = jnp.concatenate(
+          [encoding.positional_encoding(points, self.base_freqs, self.base_scale), x], -1)
     h = MLP(self.width, self.depth, tuple(self.skips), name="trunk")(x)
     raw_sigma = nn.Dense(1, name="density")(h)[..., 0]
     if density_noise_key is not None and density_noise > 0:
@@ -92,13 +100,19 @@ class RayField(nn.Module):
     return depth, acc
 
 
-def nerf_from_config(cfg, use_viewdirs=None):
-  """NeRFMLP from a stage config (`cfg.encoding`, `cfg.model`)."""
-  m = cfg.model
+def nerf_from_config(config, name: str):
+  """NeRFMLP of stage `name` ('lo' or 'hi') of a run config.
+
+  With config[name].encoding.with_lo, Lo-NeRF's P.E. (config.lo.encoding) is
+  prepended to the stage's own.
+  """
+  cfg, m = config[name], config[name].model
+  base = config.lo.encoding if cfg.encoding.get("with_lo", False) else None
   return NeRFMLP(pos_freqs=cfg.encoding.L, pos_scale=cfg.encoding.scale,
+                 base_freqs=base.L if base else 0, base_scale=base.scale if base else 1.0,
                  width=m.width, depth=m.depth, skips=tuple(m.skips),
-                 use_viewdirs=m.use_viewdirs if use_viewdirs is None else use_viewdirs,
-                 dir_freqs=m.dir_freqs, density_bias=m.density_bias)
+                 use_viewdirs=m.use_viewdirs, dir_freqs=m.dir_freqs,
+                 density_bias=m.density_bias)
 
 
 def ray_field_from_config(cfg, near, far):

@@ -5,6 +5,7 @@ import os
 import subprocess
 import sys
 
+import imageio.v3 as iio
 import numpy as np
 import pytest
 
@@ -21,6 +22,8 @@ def read_log(workdir):
 
 def test_all_stages_then_hi_alone_reuses_earlier_states(config, scene_root, tmp_path):
   config.data.root = scene_root
+  config.hi.encoding.with_lo = True
+  config.hi.init_from_lo = True
   wd = str(tmp_path / "run")
   infos = stages.run(config, wd)
   assert list(infos) == ["lo", "ray", "hi"]
@@ -36,6 +39,12 @@ def test_all_stages_then_hi_alone_reuses_earlier_states(config, scene_root, tmp_
   # Curves of a pipeline line up: hi's clock starts where lo + ray stopped.
   assert min(r["wall_s"] for r in log if r["stage"] == "hi") > max(
       r["wall_s"] for r in log if r["stage"] == "lo")
+  # The orbit renderer reads the finished Hi stage (and its ray field).
+  res = subprocess.run([sys.executable, "-m", "halo_jax.render", f"--workdir={wd}", "--frames=2"],
+                       cwd=REPO, capture_output=True, text=True, timeout=300)
+  assert res.returncode == 0, res.stderr[-3000:]
+  frame = iio.imread(os.path.join(wd, "render", "hi_orbit_frame0.png"))
+  assert frame.shape == (32, 64, 3)
   # A second launch of hi alone reads lo and ray from the workdir and trains
   # more steps from hi's checkpoint.
   config.stages = "hi"
@@ -70,6 +79,21 @@ def test_budget_splits_by_share(config):
   assert stages.with_budget(config).lo.max_seconds == 25.0  # hi still needs lo's share
 
 
+def test_transfer_from_lo_with_lo_encoding_starts_as_lo():
+  import jax
+  import jax.numpy as jnp
+  from halo_jax import models
+  lo = models.NeRFMLP(pos_freqs=5, pos_scale=8.0, width=16, depth=4, skips=(2,),
+                      use_viewdirs=False)
+  hi = models.NeRFMLP(pos_freqs=10, base_freqs=5, base_scale=8.0, width=16, depth=4,
+                      skips=(2,), use_viewdirs=False)
+  p_lo, p_hi = nerf.init_params(lo, 0), nerf.init_params(hi, 1)
+  p = nerf.transfer_from_lo(p_hi, p_lo, lo_inputs_first=True)
+  x = jax.random.normal(jax.random.PRNGKey(2), (50, 3))
+  for a, b in zip(lo.apply({"params": p_lo}, x, x), hi.apply({"params": p}, x, x)):
+    np.testing.assert_allclose(a, b, rtol=1e-5, atol=1e-6)
+
+
 def test_transfer_from_lo_keeps_input_layer():
   import jax
   from halo_jax import models
@@ -94,4 +118,4 @@ def test_cli_runs_one_stage(scene_root, tmp_path):
   assert res.returncode == 0, res.stderr[-3000:]
   assert "lo" in res.stdout and "PSNR" in res.stdout
   saved = json.load(open(os.path.join(wd, "lo", "final", "config.json")))
-  assert saved["lo"]["encoding"] == {"L": 6, "scale": 16.0}
+  assert (saved["lo"]["encoding"]["L"], saved["lo"]["encoding"]["scale"]) == (6, 16.0)

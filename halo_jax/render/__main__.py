@@ -46,7 +46,7 @@ def main(argv):
   config = checkpoint.read_config(os.path.join(wd, name, "final", "config.json"))
   dataset = datasets.load(config.data, wd)
   cfg = config[name]
-  model = models.nerf_from_config(cfg)
+  model = models.nerf_from_config(config, name)
   state = stages.load(wd, name, stages.nerf.init_params(model, config.seed))
   guide_model, guide_params, radius = None, None, None
   if cfg.sampler.kind == "depth_guided":

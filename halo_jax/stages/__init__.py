@@ -58,7 +58,7 @@ def _params_like(config, name, dataset):
   if name == "ray":
     m = models.ray_field_from_config(config.ray, dataset.near, dataset.far)
     return ray.init_params(m, config.seed)
-  return nerf.init_params(models.nerf_from_config(config[name]), config.seed)
+  return nerf.init_params(models.nerf_from_config(config, name), config.seed)
 
 
 def _info_path(workdir, name):

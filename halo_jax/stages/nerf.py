@@ -48,7 +48,7 @@ def random_ray_bank(lo_state: StageState, num_rays, radius, focal_over_width, ne
 
   Returns dict: origins, dirs [B, 3], depth, acc [B] (numpy).
   """
-  lo_model = models.nerf_from_config(lo_state.config.lo)
+  lo_model = models.nerf_from_config(lo_state.config, "lo")
   o, d = camera.random_hemisphere_rays(jax.random.PRNGKey(seed), num_rays, radius,
                                        focal_over_width)
   fn = lambda oo, dd: dict(zip(("depth", "acc"), field.lo_targets(
@@ -58,14 +58,27 @@ def random_ray_bank(lo_state: StageState, num_rays, radius, focal_over_width, ne
   return {"origins": np.asarray(o), "dirs": np.asarray(d), **out}
 
 
-def transfer_from_lo(hi_params, lo_params):
-  """Hi-NeRF parameters with every layer but the input layer copied from Lo-NeRF
-  where the shapes agree (the authors' initialisation option)."""
+def transfer_from_lo(hi_params, lo_params, lo_inputs_first: bool = False):
+  """Hi-NeRF parameters initialised from Lo-NeRF's.
+
+  Layers of equal shape are copied; the rest (the view-direction branch, and
+  the input layer over other features: the authors' option) keep their fresh
+  initialisation. With `lo_inputs_first` (Hi-NeRF's encoding starts with Lo's
+  P.E., `hi.encoding.with_lo`), a kernel whose inputs extend Lo's (the input
+  and skip layers) gets Lo's rows first and zeros for the extra Hi features,
+  so the Hi-NeRF starts as the same function as the Lo-NeRF.
+  """
   flat_lo = dict(jax.tree_util.tree_leaves_with_path(lo_params))
   def pick(path, x):
     src = flat_lo.get(path)
-    is_input = any(getattr(k, "key", None) == "dense_0" for k in path)
-    return src if (src is not None and src.shape == x.shape and not is_input) else x
+    if src is None or src.ndim != x.ndim:
+      return x
+    if src.shape == x.shape:
+      return src
+    if (lo_inputs_first and x.ndim == 2 and src.shape[1] == x.shape[1]
+        and src.shape[0] < x.shape[0]):
+      return jnp.zeros_like(x).at[:src.shape[0]].set(src)
+    return x
   return jax.tree_util.tree_map_with_path(pick, hi_params)
 
 
@@ -118,12 +131,16 @@ def train(config, dataset, workdir, name, lo_state=None, ray_state=None, log=Non
   """
   cfg = config[name]
   near, far, white = dataset.near, dataset.far, dataset.white_background
-  model = models.nerf_from_config(cfg)
+  model = models.nerf_from_config(config, name)
   params = init_params(model, config.seed)
   if cfg.init_from_lo:
     if lo_state is None:
       raise ValueError(f"{name}.init_from_lo needs a finished 'lo' stage")
-    params = transfer_from_lo(params, lo_state.params)
+    if cfg.encoding.with_lo and lo_state.config.lo.encoding != config.lo.encoding:
+      raise ValueError(f"{name}.encoding.with_lo: this run's lo.encoding "
+                       f"{config.lo.encoding.to_dict()} differs from the finished Lo "
+                       f"stage's {lo_state.config.lo.encoding.to_dict()}")
+    params = transfer_from_lo(params, lo_state.params, cfg.encoding.with_lo)
   data = training_rays(dataset.train, cfg.precrop_frac)
   guide_model, radius = None, None
   if cfg.sampler.kind == "depth_guided":

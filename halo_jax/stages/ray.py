@@ -41,7 +41,7 @@ def train(config, dataset, workdir, lo_state: StageState, log=None, wall_offset=
   near, far, white = dataset.near, dataset.far, dataset.white_background
   radius = cfg.radius or dataset.radius
   model = models.ray_field_from_config(cfg, near, far)
-  lo_model = models.nerf_from_config(lo_state.config.lo)
+  lo_model = models.nerf_from_config(lo_state.config, "lo")
   lo_samples = cfg.lo_samples or lo_state.config.lo.sampler.num_samples
   t0 = time.perf_counter()
   rays = nerf.training_rays(dataset.train, 1.0)
