@@ -58,6 +58,7 @@ def _rays(n, key=0):
 def step_throughput(loss_fn, cfg, params, data, rays_per_step, samples_per_ray):
   tx = loop.optimizer(cfg)
   step = loop.make_step(loss_fn, tx)
+  params = jax.tree_util.tree_map(jnp.copy, params)  # the step donates its input
   state = dict(params=params, opt_state=tx.init(params), step=jnp.int32(0),
                skipped=jnp.int32(0))
   key = jax.random.PRNGKey(0)

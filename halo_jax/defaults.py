@@ -139,7 +139,10 @@ def cpu_sized(c: ml_collections.ConfigDict, budget_s: float) -> ml_collections.C
   c.hi.init_from_lo = True
   c.hi.sampler.num_samples = 32
   c.hi.empty.update(num_rays=256, num_samples=32, bank_rays=32768)
-  c.hi.update(batch_rays=1024, steps=6000, checkpoint_every=500, log_every=50)
+  # 4x the paper's rate, for Hi-NeRF and the NeRF baseline alike: at this budget
+  # both gain from it (lego, 600 s: NeRF +1.45 dB, HALO +0.60 dB over 5e-4).
+  c.hi.update(batch_rays=1024, steps=6000, lr_init=2e-3, lr_final=2e-4, checkpoint_every=500,
+              log_every=50)
   for name in ("lo", "hi"):
     c[name].model.update(width=128, depth=4, skips=(), use_viewdirs=False)
   return c

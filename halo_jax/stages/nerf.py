@@ -136,7 +136,8 @@ def train(config, dataset, workdir, name, lo_state=None, ray_state=None, log=Non
   if cfg.init_from_lo:
     if lo_state is None:
       raise ValueError(f"{name}.init_from_lo needs a finished 'lo' stage")
-    if cfg.encoding.with_lo and lo_state.config.lo.encoding != config.lo.encoding:
+    if cfg.encoding.with_lo and (lo_state.config.lo.encoding.to_dict() !=
+                                 config.lo.encoding.to_dict()):
       raise ValueError(f"{name}.encoding.with_lo: this run's lo.encoding "
                        f"{config.lo.encoding.to_dict()} differs from the finished Lo "
                        f"stage's {lo_state.config.lo.encoding.to_dict()}")
