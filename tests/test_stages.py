@@ -81,7 +81,6 @@ def test_budget_splits_by_share(config):
 
 def test_transfer_from_lo_with_lo_encoding_starts_as_lo():
   import jax
-  import jax.numpy as jnp
   from halo_jax import models
   lo = models.NeRFMLP(pos_freqs=5, pos_scale=8.0, width=16, depth=4, skips=(2,),
                       use_viewdirs=False)
@@ -95,7 +94,6 @@ def test_transfer_from_lo_with_lo_encoding_starts_as_lo():
 
 
 def test_transfer_from_lo_keeps_input_layer():
-  import jax
   from halo_jax import models
   lo = models.NeRFMLP(pos_freqs=5, width=16, depth=2, skips=(), use_viewdirs=False)
   hi = models.NeRFMLP(pos_freqs=10, width=16, depth=2, skips=(), use_viewdirs=True)

@@ -62,7 +62,3 @@ class Dataset:
 def camera_radius(c2w) -> float:
   return float(np.linalg.norm(np.asarray(c2w)[:, :3, 3], axis=-1).mean())
 
-
-def select_every(names, every: int):
-  """Every `every`-th name in the order given (e.g. r_0, r_8, ... of the test set)."""
-  return list(names)[::every]

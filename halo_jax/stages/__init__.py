@@ -8,9 +8,7 @@ import copy
 import json
 import os
 
-import jax.numpy as jnp
-
-from halo_jax import checkpoint, datasets, models
+from halo_jax import datasets, models
 from halo_jax.stages import loop, nerf, ray
 from halo_jax.stages.state import StageState, load, save, stage_dir
 
