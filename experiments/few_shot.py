@@ -99,14 +99,16 @@ def main(argv):
   if FLAGS.methods and os.path.exists(results_path):
     with open(results_path) as f:
       results = json.load(f)
+  n_test = 0
   for name, cfg in methods(config, FLAGS.all_views_reference).items():
     if FLAGS.methods and name not in FLAGS.methods:
       continue
     dataset = datasets.load(cfg.data, os.path.join(FLAGS.workdir, name))
+    n_test = len(dataset.test.names)
     results[name] = run_method(cfg, os.path.join(FLAGS.workdir, name), dataset)
     with open(results_path, "w") as f:
       json.dump(results, f, indent=1)
-  print(write_report(results, FLAGS.workdir, len(dataset.test.names)))
+  print(write_report(results, FLAGS.workdir, n_test))
 
 
 if __name__ == "__main__":

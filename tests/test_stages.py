@@ -102,6 +102,13 @@ def test_transfer_from_lo_keeps_input_layer():
   np.testing.assert_array_equal(out["trunk"]["dense_1"]["kernel"], p_lo["trunk"]["dense_1"]["kernel"])
   np.testing.assert_array_equal(out["trunk"]["dense_0"]["kernel"], p_hi["trunk"]["dense_0"]["kernel"])
   np.testing.assert_array_equal(out["view"]["kernel"], p_hi["view"]["kernel"])
+  # Equal widths do not make the input layer transferable: it reads other features.
+  same_width = models.NeRFMLP(pos_freqs=5, pos_scale=1.0, width=16, depth=2, skips=(),
+                              use_viewdirs=False)
+  p_same = nerf.init_params(same_width, 3)
+  out = nerf.transfer_from_lo(p_same, p_lo)
+  np.testing.assert_array_equal(out["trunk"]["dense_0"]["kernel"], p_same["trunk"]["dense_0"]["kernel"])
+  np.testing.assert_array_equal(out["trunk"]["dense_1"]["kernel"], p_lo["trunk"]["dense_1"]["kernel"])
 
 
 def test_cli_runs_one_stage(scene_root, tmp_path):

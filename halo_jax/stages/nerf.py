@@ -73,6 +73,10 @@ def transfer_from_lo(hi_params, lo_params, lo_inputs_first: bool = False):
     src = flat_lo.get(path)
     if src is None or src.ndim != x.ndim:
       return x
+    # Without lo_inputs_first the input layer reads other features than Lo's,
+    # even where the widths happen to agree.
+    if not lo_inputs_first and any(getattr(k, "key", None) == "dense_0" for k in path):
+      return x
     if src.shape == x.shape:
       return src
     if (lo_inputs_first and x.ndim == 2 and src.shape[1] == x.shape[1]
