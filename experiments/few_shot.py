@@ -47,6 +47,7 @@ def run_method(config, workdir, dataset):
   infos = stages.run(config, workdir, dataset)
   last = infos[stages.parse_stages(config.stages)[-1]]
   return {"psnr": last["eval"]["psnr"], "ssim": last["eval"]["ssim"],
+          "lpips": last["eval"].get("lpips", float("nan")),
           "wall_s": sum(i["wall_s"] for i in infos.values()),
           "stages": {n: {"wall_s": i["wall_s"], "step": i["step"],
                          **({"psnr": i["eval"]["psnr"]} if "eval" in i else {})}
@@ -69,9 +70,11 @@ def methods(config, all_views):
 
 
 def write_report(results, workdir, n_test):
-  lines = ["| method | held-out PSNR | SSIM | training s |", "|---|---|---|---|"]
+  lines = ["| method | held-out PSNR | SSIM | LPIPS (VGG) | training s |",
+           "|---|---|---|---|---|"]
   for name, r in results.items():
-    lines.append(f"| {name} | {r['psnr']:.2f} | {r['ssim']:.3f} | {r['wall_s']:.0f} |")
+    lines.append(f"| {name} | {r['psnr']:.2f} | {r['ssim']:.3f} | {r.get('lpips', float('nan')):.3f} "
+                 f"| {r['wall_s']:.0f} |")
   table = "\n".join(lines) + f"\n\n({n_test} held-out views.)\n"
   with open(os.path.join(workdir, "results.md"), "w") as f:
     f.write(table)

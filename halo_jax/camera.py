@@ -104,5 +104,8 @@ def sphere_entry(origins, directions, radius: float):
   c = (origins ** 2).sum(-1) - radius ** 2
   disc = b ** 2 - c
   hit = disc >= 0
-  t_entry = -b - jnp.sqrt(jnp.maximum(disc, 0.0))
+  # Double where: sqrt's gradient at 0 is inf, and inf * 0 would make NaN
+  # gradients for tangent and missing lines.
+  safe = jnp.where(disc > 0, disc, 1.0)
+  t_entry = -b - jnp.where(disc > 0, jnp.sqrt(safe), 0.0)
   return t_entry, origins + t_entry[..., None] * directions, hit

@@ -100,6 +100,7 @@ def base_config() -> ml_collections.ConfigDict:
       chunk=4096,          # rays per jitted rendering call
       curve_views=5,       # held-out views used for the PSNR curve (final eval uses all)
       save_images=True,
+      lpips=True,          # LPIPS-VGG in the final evaluation (needs H, W >= 32)
   ))
   return c
 

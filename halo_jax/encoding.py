@@ -1,13 +1,68 @@
-"""Input encodings: positional encoding with a frequency count L and a scale s."""
+"""Input encodings: positional encoding with a frequency count L and a scale s.
+
+Precision. In fp32 the angle 2^k x / s carries a rounding error of about
+|angle| * 2^-24 once it is formed, so a naive encoding loses all precision for
+large |x| * 2^L / s (0.4 absolute error in sin at |x| = 1e3, L = 16, s = 7).
+XLA's sin/cos reduce their argument exactly, so the only loss is in forming
+the angle. We form it as a1 + b, where a1 = x_hi * f_hi is an exact fp32
+product (x and f = 2^k / s split into 12-bit halves) and b is the small rest,
+then use sin(a1 + b) = sin a1 cos b + cos a1 sin b. The error is then about
+2^-24 * (3 + |angle| * 2^-11) instead of 2^-24 * |angle|; `experiments/
+stability.py` measures both against float64. For power-of-two s both forms
+are exact up to sin's own rounding.
+"""
+import jax
 import jax.numpy as jnp
+import numpy as np
+
+_HI_MASK = np.uint32(0xFFFFF000)  # keeps sign, exponent and the top 11 stored mantissa bits
+
+
+def _split_host(values: np.ndarray):
+  """float64 [...] -> (hi, lo) float32 with hi holding 12 significant bits."""
+  hi = (values.astype(np.float32).view(np.uint32) & _HI_MASK).view(np.float32)
+  lo = (values - hi.astype(np.float64)).astype(np.float32)
+  return hi, lo
+
+
+def _split(x):
+  """fp32 x -> (x_hi, x_lo), x_hi with 12 significant bits, x_hi + x_lo == x exactly."""
+  hi = jax.lax.bitcast_convert_type(
+      jax.lax.bitcast_convert_type(x, jnp.uint32) & _HI_MASK, jnp.float32)
+  return hi, x - hi
+
+
+def sin_cos_of_scaled(x, freqs: np.ndarray):
+  """sin(x f) and cos(x f) for every frequency, with the compensated angle.
+
+  Args:
+    x: [..., D] coordinates (fp32 gets the compensated form unless every
+      frequency is a power of two; other dtypes the direct one).
+    freqs: [L] frequencies (host float64).
+
+  Returns:
+    sin, cos: [..., L * D] ordered (k, dim).
+  """
+  shape = (*x.shape[:-1], -1)
+  powers_of_two = np.all(np.frexp(np.asarray(freqs, np.float64))[0] == 0.5)
+  if x.dtype != jnp.float32 or powers_of_two:
+    # x * 2^k is exact in any binary float: no compensation needed.
+    angles = (x[..., None, :] * jnp.asarray(freqs, x.dtype)[:, None]).reshape(shape)
+    return jnp.sin(angles), jnp.cos(angles)
+  f_hi, f_lo = _split_host(np.asarray(freqs, np.float64))
+  f_hi, f_lo = jnp.asarray(f_hi)[:, None], jnp.asarray(f_lo)[:, None]
+  x_hi, x_lo = _split(x)
+  x, x_hi, x_lo = x[..., None, :], x_hi[..., None, :], x_lo[..., None, :]
+  a1 = (x_hi * f_hi).reshape(shape)                       # exact: 12 x 12 bits
+  b = (x_lo * f_hi + x * f_lo).reshape(shape)             # |b| <= |angle| 2^-11
+  s1, c1, sb, cb = jnp.sin(a1), jnp.cos(a1), jnp.sin(b), jnp.cos(b)
+  return s1 * cb + c1 * sb, c1 * cb - s1 * sb
 
 
 def positional_encoding(x, num_freqs: int, scale: float = 1.0, include_input: bool = True):
-  """gamma(x; L, s) = [x, sin(2^k x / s), cos(2^k x / s)] for k = 0..L-1.
+  """gamma(x; L, s) = [x / s, sin(2^k x / s), cos(2^k x / s)] for k = 0..L-1.
 
   The features are ordered (k, dim) with all sines first, then all cosines.
-  Multiplying x/s by 2^k is exact in floating point, so the only rounding comes
-  from x / s and from sin/cos themselves.
 
   Args:
     x: [..., D] coordinates.
@@ -19,13 +74,18 @@ def positional_encoding(x, num_freqs: int, scale: float = 1.0, include_input: bo
   Returns:
     [..., D * (2 L + include_input)] features.
   """
-  xs = x / scale
-  freqs = 2.0 ** jnp.arange(num_freqs, dtype=x.dtype)
-  angles = (xs[..., None, :] * freqs[:, None]).reshape(*x.shape[:-1], -1)
-  feats = [jnp.sin(angles), jnp.cos(angles)]
+  freqs = 2.0 ** np.arange(num_freqs, dtype=np.float64) / float(scale)
+  feats = list(sin_cos_of_scaled(x, freqs))
   if include_input:
-    feats = [xs] + feats
+    feats = [x / scale] + feats
   return jnp.concatenate(feats, axis=-1)
+
+
+def naive_positional_encoding(x, num_freqs: int, scale: float = 1.0):
+  """The uncompensated sin/cos features [..., 2 L D] (for the precision comparison)."""
+  angles = (x / scale)[..., None, :] * (2.0 ** jnp.arange(num_freqs, dtype=x.dtype))[:, None]
+  angles = angles.reshape(*x.shape[:-1], -1)
+  return jnp.concatenate([jnp.sin(angles), jnp.cos(angles)], -1)
 
 
 def encoded_size(dim: int, num_freqs: int, include_input: bool = True) -> int:

@@ -25,32 +25,35 @@ def render_views(eval_fn, views, chunk, indices=None):
   return field.render_chunked(eval_fn, o, d, chunk)
 
 
-def score(rgb, target):
-  """Per-view PSNR and SSIM: rgb, target [V, H, W, 3] -> two lists of V floats."""
+def score(rgb, target, with_lpips=False):
+  """Per-view metrics: rgb, target [V, H, W, 3] -> {'psnr', 'ssim'[, 'lpips']}: V floats each."""
   rgb = jnp.clip(jnp.asarray(rgb), 0.0, 1.0)
   target = jnp.asarray(target)
-  return ([float(x) for x in metrics.psnr(rgb, target)],
-          [float(x) for x in metrics.ssim(rgb, target)])
+  out = {"psnr": [float(x) for x in metrics.psnr(rgb, target)],
+         "ssim": [float(x) for x in metrics.ssim(rgb, target)]}
+  if with_lpips:
+    out["lpips"] = [float(x) for x in metrics.lpips(rgb, target)]
+  return out
 
 
 def heldout_psnr(eval_fn, views, chunk, num_views):
   """Mean PSNR over the first `num_views` held-out views (for training curves)."""
   idx = np.arange(min(num_views, len(views.names)))
   out = render_views(eval_fn, views, chunk, idx)
-  psnr, _ = score(out["rgb"], views.images[idx])
-  return float(np.mean(psnr))
+  return float(np.mean(score(out["rgb"], views.images[idx])["psnr"]))
 
 
-def evaluate(eval_fn, views, chunk, out_dir, near, far, save_images=True):
+def evaluate(eval_fn, views, chunk, out_dir, near, far, save_images=True, with_lpips=True):
   """Renders every held-out view, writes <out_dir>/metrics.json (+ images).
 
-  Returns {'psnr', 'ssim', 'per_view': {name: {'psnr', 'ssim'}}}.
+  Returns {'psnr', 'ssim'[, 'lpips'], 'num_views', 'per_view': {name: {metric: value}}}.
   """
   out = render_views(eval_fn, views, chunk)
-  psnr, ssim = score(out["rgb"], views.images)
-  result = {"psnr": float(np.mean(psnr)), "ssim": float(np.mean(ssim)),
-            "num_views": len(psnr),
-            "per_view": {n: {"psnr": p, "ssim": s} for n, p, s in zip(views.names, psnr, ssim)}}
+  per_metric = score(out["rgb"], views.images, with_lpips)
+  result = {k: float(np.mean(v)) for k, v in per_metric.items()}
+  result["num_views"] = len(views.names)
+  result["per_view"] = {n: {k: v[i] for k, v in per_metric.items()}
+                        for i, n in enumerate(views.names)}
   os.makedirs(out_dir, exist_ok=True)
   with open(os.path.join(out_dir, "metrics.json"), "w") as f:
     json.dump(result, f, indent=1)

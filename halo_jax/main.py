@@ -23,11 +23,12 @@ def main(argv):
   del argv
   logging.set_verbosity(logging.WARNING)  # orbax logs every save at INFO
   infos = stages.run(FLAGS.config, FLAGS.workdir)
-  print(f"{'stage':6} {'steps':>6} {'train s':>8} {'PSNR':>7} {'SSIM':>6}")
+  print(f"{'stage':6} {'steps':>6} {'train s':>8} {'PSNR':>7} {'SSIM':>6} {'LPIPS':>6}")
   for name, info in infos.items():
     ev = info.get("eval", {})
-    print(f"{name:6} {info['step']:6d} {info['wall_s']:8.1f} {ev.get('psnr', float('nan')):7.2f} "
-          f"{ev.get('ssim', float('nan')):6.3f}")
+    nan = float("nan")
+    print(f"{name:6} {info['step']:6d} {info['wall_s']:8.1f} {ev.get('psnr', nan):7.2f} "
+          f"{ev.get('ssim', nan):6.3f} {ev.get('lpips', nan):6.3f}")
   print(json.dumps({"workdir": FLAGS.workdir}))
 
 

@@ -6,6 +6,10 @@
 
 import jax.numpy as jnp
 
+# An infinite interval (t_edges ending in inf) is taken to be this long, NeRF's
+# stand-in for "to infinity": long enough that any density fills it.
+INFINITE_DELTA = 1e10
+
 
 def compute_weights(sigma, t_edges):
   """Per-interval compositing weights.
@@ -18,12 +22,12 @@ def compute_weights(sigma, t_edges):
   Args:
     sigma: [..., N] non-negative densities, one per interval.
     t_edges: [..., N + 1] sorted interval edges along the ray; intervals may be
-      0 long or as long as 1e10 (a stand-in for infinity).
+      0 long, as long as 1e10, or infinite (an inf edge).
 
   Returns:
     weights [..., N], and transmittance after the last interval [...].
   """
-  delta = jnp.diff(t_edges, axis=-1)
+  delta = interval_lengths(t_edges)
   # sigma * delta can be 0 * inf-like; clamp so it never becomes NaN or inf.
   optical_depth = jnp.clip(sigma * delta, 0.0, 1e30)
   cum = jnp.cumsum(optical_depth, axis=-1)
@@ -31,6 +35,17 @@ def compute_weights(sigma, t_edges):
   trans = jnp.exp(-excl)
   alpha = -jnp.expm1(-optical_depth)
   return trans * alpha, jnp.exp(-cum[..., -1])
+
+
+def interval_lengths(t_edges):
+  """[..., N + 1] edges -> [..., N] lengths; an infinite one becomes INFINITE_DELTA."""
+  delta = jnp.diff(t_edges, axis=-1)
+  return jnp.where(jnp.isposinf(delta), INFINITE_DELTA, delta)
+
+
+def interval_midpoints(t_edges):
+  """[..., N + 1] edges -> [..., N] midpoints, finite for an infinite last interval."""
+  return t_edges[..., :-1] + 0.5 * interval_lengths(t_edges)
 
 
 def volume_render(sigma, rgb, t_edges, white_background: bool = True):
@@ -48,7 +63,7 @@ def volume_render(sigma, rgb, t_edges, white_background: bool = True):
     weights [..., N].
   """
   weights, _ = compute_weights(sigma, t_edges)
-  t_mid = 0.5 * (t_edges[..., 1:] + t_edges[..., :-1])
+  t_mid = interval_midpoints(t_edges)
   acc = weights.sum(-1)
   color = (weights[..., None] * rgb).sum(-2)
   if white_background:

@@ -48,7 +48,7 @@ def sample_edges(sampler_cfg, key, shape, near, far, guide_depth=None, randomize
 
 def composite(model, params, origins, dirs, t_edges, white_background, key=None, noise=0.0):
   """Queries the NeRF at interval midpoints and composites. Returns render's dict."""
-  t_mid = 0.5 * (t_edges[..., 1:] + t_edges[..., :-1])
+  t_mid = render.interval_midpoints(t_edges)
   pts = origins[..., None, :] + t_mid[..., None] * dirs[..., None, :]
   vdirs = jnp.broadcast_to(dirs[..., None, :], pts.shape)
   sigma, rgb = model.apply({"params": params}, pts, vdirs, key, noise)

@@ -188,5 +188,5 @@ def train(config, dataset, workdir, name, lo_state=None, ray_state=None, log=Non
   state = StageState(params, step, config, name)
   info["eval"] = evaluate.evaluate(make_eval(params), dataset.test, config.eval.chunk,
                                    os.path.join(stage_dir(workdir, name), "eval"), near, far,
-                                   config.eval.save_images)
+                                   config.eval.save_images, config.eval.lpips)
   return state, info
