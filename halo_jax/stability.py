@@ -161,7 +161,7 @@ def case_render_empty_and_opaque() -> List[Check]:
 # ---------------------------------------------------------------- encoding
 
 def case_encoding_large_arguments() -> List[Check]:
-  """sin/cos(2^k x / s) for |x| up to 1e3 and L = 16 against float64.
+  """sin/cos(2^k x / s) for x up to +-1e3 and L = 16 against float64.
 
   Tolerance: the compensated form's bound 2^-24 (4 + |angle| 2^-11), doubled.
   The naive form's error is reported in the note.
@@ -181,7 +181,7 @@ def case_encoding_large_arguments() -> List[Check]:
       grad = jax.grad(lambda v: encoding.positional_encoding(v, L, s).sum())(xj)
       max_angle = float(np.abs(angles).max())
       checks.append(Check(
-          f"P.E. |x|<={mag:g}, s={s:g}, L={L} (|angle|<={max_angle:.1e})", "sin, cos",
+          f"P.E. x in +-{mag:g}, s={s:g}, L={L} (angles up to {max_angle:.1e})", "sin, cos",
           _max_abs(got, want), 2 * EPS32 * (4 + max_angle * 2.0 ** -11), "float64 numpy",
           _finite(got, grad), note=f"naive {_max_abs(naive, want):.1e}"))
   return checks

@@ -18,8 +18,15 @@ def _read_transforms(root: str, split: str):
       meta = json.load(f)
   except json.JSONDecodeError as e:
     raise DataError(f"{path}: malformed JSON ({e})") from e
+  if not isinstance(meta, dict):
+    raise DataError(f"{path}: expected a JSON object with 'camera_angle_x' and 'frames'")
   if "camera_angle_x" not in meta:
     raise DataError(f"{path}: missing field 'camera_angle_x'")
+  angle = meta["camera_angle_x"]
+  if (isinstance(angle, bool) or not isinstance(angle, (int, float))
+      or not 0 < angle < np.pi):
+    raise DataError(f"{path}: field 'camera_angle_x' must be a number in (0, pi) radians, "
+                    f"got {angle!r}")
   frames = meta.get("frames")
   if not isinstance(frames, list) or not frames:
     raise DataError(f"{path}: missing or empty field 'frames'")
@@ -87,17 +94,26 @@ def load_views(root: str, split: str, factor: int = 1,
   for n in names:
     fr = frames[n]
     fp = fr["file_path"]
-    img_path = os.path.join(root, fp if os.path.splitext(fp)[1] else fp + ".png")
+    img_path = os.path.normpath(os.path.join(root, fp if os.path.splitext(fp)[1] else fp + ".png"))
     img = load_image(img_path, factor, white_background)
     if images and img.shape != images[0].shape:
-      raise DataError(f"{img_path}: size {img.shape[1]}x{img.shape[0]} differs from "
-                      f"{images[0].shape[1]}x{images[0].shape[0]} of the other views")
-    pose = np.asarray(fr["transform_matrix"], np.float64)
+      (h, w), (h0, w0) = img.shape[:2], images[0].shape[:2]
+      raise DataError(f"{img_path}: size {w * factor}x{h * factor} differs from "
+                      f"{w0 * factor}x{h0 * factor} of the other views")
+    try:
+      pose = np.asarray(fr["transform_matrix"], np.float64)
+    except (TypeError, ValueError):
+      pose = np.full((0,), np.nan)
     if pose.shape != (4, 4) or not np.all(np.isfinite(pose)):
       raise DataError(f"{path}: 'transform_matrix' of {n} is not a finite 4x4 matrix")
     rot = pose[:3, :3]
     if not np.allclose(rot @ rot.T, np.eye(3), atol=1e-3):
       raise DataError(f"{path}: 'transform_matrix' of {n} is not rigid (R R^T != I)")
+    if np.linalg.det(rot) < 0:
+      raise DataError(f"{path}: 'transform_matrix' of {n} is not rigid (a reflection, det R < 0)")
+    if not np.allclose(pose[3], [0, 0, 0, 1]):
+      raise DataError(f"{path}: 'transform_matrix' of {n} has last row {pose[3].tolist()}, "
+                      "not [0, 0, 0, 1]")
     images.append(img)
     poses.append(pose)
   width = images[0].shape[1]

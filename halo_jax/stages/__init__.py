@@ -5,10 +5,11 @@ now. A stage that a later one needs but that is not in the list is loaded
 from the workdir, where an earlier launch left it.
 """
 import copy
+import fnmatch
 import json
 import os
 
-from halo_jax import datasets, models
+from halo_jax import checkpoint, datasets, models
 from halo_jax.stages import loop, nerf, ray
 from halo_jax.stages.state import StageState, load, save, stage_dir
 
@@ -52,6 +53,53 @@ def with_budget(config):
   return config
 
 
+# Fields that say which stages run, how long or how often to log, evaluate and
+# save; they may change between launches in one workdir. Every other field
+# must match the config the workdir was started with.
+RELAUNCH_FIELDS = ("stages", "budget_s", "eval.*", "*.steps", "*.max_seconds", "*.eval_every",
+                   "*.eval_every_s", "*.log_every", "*.checkpoint_every")
+
+
+class WorkdirMismatch(ValueError):
+  """The workdir holds a run made with another config."""
+
+
+def _flatten(tree, prefix=""):
+  out = {}
+  for k, v in tree.items():
+    key = f"{prefix}{k}"
+    if isinstance(v, dict):
+      out.update(_flatten(v, key + "."))
+    else:
+      out[key] = list(v) if isinstance(v, tuple) else v
+  return out
+
+
+def check_workdir(config, workdir: str) -> None:
+  """Raises WorkdirMismatch if `workdir` was started with a different config;
+  records the config as `<workdir>/config.json` on the first launch."""
+  path = os.path.join(workdir, "config.json")
+  now = json.loads(config.to_json_best_effort())
+  if not os.path.exists(path):
+    checkpoint.write_config(path, config)
+    return
+  try:
+    with open(path) as f:
+      before = json.load(f)
+  except json.JSONDecodeError as e:
+    raise WorkdirMismatch(f"{path}: malformed JSON ({e}); not a halo-jax workdir?") from e
+  a, b = _flatten(before), _flatten(now)
+  differ = sorted(k for k in set(a) | set(b) if a.get(k, "<absent>") != b.get(k, "<absent>")
+                  and not any(fnmatch.fnmatchcase(k, p) for p in RELAUNCH_FIELDS))
+  if differ:
+    shown = ", ".join(f"{k}: {a.get(k, '<absent>')!r} -> {b.get(k, '<absent>')!r}"
+                      for k in differ[:8])
+    raise WorkdirMismatch(
+        f"{path}: this workdir holds a run made with another config ({len(differ)} fields "
+        f"differ: {shown}{', ...' if len(differ) > 8 else ''}). Use a new --workdir, or "
+        f"delete the workdir to start over.")
+
+
 def _params_like(config, name, dataset):
   if name == "ray":
     m = models.ray_field_from_config(config.ray, dataset.near, dataset.far)
@@ -69,6 +117,7 @@ def run(config, workdir: str, dataset=None) -> dict:
   info holds the stage's training seconds ('wall_s'), steps, skipped steps and,
   for NeRF stages, the held-out evaluation.
   """
+  check_workdir(config, workdir)
   config = with_budget(config)
   dataset = dataset or datasets.load(config.data, workdir)
   run_now = parse_stages(config.stages)
@@ -94,4 +143,4 @@ def run(config, workdir: str, dataset=None) -> dict:
   return infos
 
 
-__all__ = ["StageState", "run", "parse_stages", "needed", "ORDER", "load", "save"]
+__all__ = ["StageState", "WorkdirMismatch", "check_workdir", "run", "parse_stages", "needed", "ORDER", "load", "save"]

@@ -30,6 +30,26 @@ class MetricsLog:
     with open(self.path, "a") as f:
       f.write(json.dumps(record) + "\n")
 
+  def drop_after(self, stage: str, step: int) -> None:
+    """Removes `stage`'s records past `step` (written by a run killed after its
+    last checkpoint), so a resumed run logs each step once. Atomic rewrite."""
+    if not os.path.exists(self.path):
+      return
+    with open(self.path) as f:
+      lines = f.readlines()
+    keep = []
+    for line in lines:
+      try:
+        rec = json.loads(line)
+      except json.JSONDecodeError:
+        continue  # a line cut short by the kill
+      if not (rec.get("stage") == stage and rec.get("step", 0) > step):
+        keep.append(json.dumps(rec) + "\n")
+    tmp = self.path + ".tmp"
+    with open(tmp, "w") as f:
+      f.writelines(keep)
+    os.replace(tmp, self.path)
+
 
 def optimizer(cfg) -> optax.GradientTransformation:
   """Adam with NeRF's log-linear decay from lr_init to lr_final over `steps`."""
@@ -109,6 +129,7 @@ def train(name: str, cfg, workdir: str, params, loss_fn: Callable, data, seed: i
     wall_s = float(restored.pop("wall_s"))
     train_state = restored
   start = int(train_state["step"])
+  log.drop_after(name, start)
   base_key = jax.random.PRNGKey(seed)
   last_eval_s, last_log, last_eval_step = wall_s, start, None
 

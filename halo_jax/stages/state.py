@@ -45,6 +45,10 @@ def load(workdir: str, name: str, params_like) -> StageState:
 def save(workdir: str, state: StageState) -> None:
   final = os.path.join(stage_dir(workdir, state.name), "final")
   mngr = checkpoint.manager(os.path.join(final, "params"), max_to_keep=1)
+  if int(state.step) in mngr.all_steps():
+    # A run killed between saving these params and writing config.json: the
+    # resumed run reached the same step, so replace them.
+    mngr.delete(int(state.step))
   checkpoint.save(mngr, int(state.step), {"params": state.params, "step": int(state.step)})
   # config.json last: its presence marks the stage as finished.
   checkpoint.write_config(os.path.join(final, "config.json"), state.config)
