@@ -88,6 +88,19 @@ def base_config() -> ml_collections.ConfigDict:
   c.hi.lr_final = 5e-5
   c.hi.precrop_steps = 0
   c.hi.empty.weight = 0.1
+  # auto: choose lo.encoding.L / scale with the frequency criterion before
+  # training (halo_jax/tuning.py; the search runs in <workdir>/tune once).
+  c.lo.encoding.auto = False
+  c.tune = ml_collections.ConfigDict(dict(
+      grid="10:1,8:1,6:1,5:1,5:4,5:8,5:16,5:32",  # L:s points, searched high to low frequency
+      threshold=25.0,        # the paper's threshold on the criterion
+      num_pairs=8,           # nearby view pairs rendered per point
+      angle_deg=1.5,         # their baseline along the orbit
+      mask_fraction=0.01,    # share of the largest spectrum coefficients dropped (beside DC)
+      seed=0,
+      lo_seconds=0.0,        # training time of each short Lo-NeRF (0: lo.max_seconds)
+      lo_steps=0,            # step cap of each short Lo-NeRF (0: lo.steps)
+  ))
   c.ray = ml_collections.ConfigDict(_train(24000, 4096, 5e-4, 5e-6))
   c.ray.encoding = ml_collections.ConfigDict(dict(L=10, scale=32.0))
   c.ray.model = _model()

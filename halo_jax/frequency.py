@@ -8,8 +8,8 @@ threshold of 25 means something):
   * FFT normalisation: unitary ("ortho", divided by sqrt(H W)), so by
     Parseval the criterion is on the scale of a pixel difference in grey
     levels and does not grow with resolution;
-  * mask: per pair, the DC coefficient and the `mask_fraction` largest
-    coefficients of (|F(I_a)| + |F(I_b)|) / 2 are dropped; these carry the
+  * mask: per pair, the DC coefficient and round(mask_fraction H W) more of the
+    largest coefficients of (|F(I_a)| + |F(I_b)|) / 2 are dropped; these carry the
     image's overall brightness and dominant low frequencies, which a camera
     move changes the most even when the field is artefact-free;
   * sigma = mean over pairs of the mean |F(I_a) - F(I_b)| over kept
@@ -40,7 +40,8 @@ def spectrum_mask(spec_a, spec_b, mask_fraction: float):
   flat = mag.reshape(*mag.shape[:-2], h * w)
   keep = jnp.ones(flat.shape, bool).at[..., 0].set(False)  # DC is index 0
   if num_drop > 0:
-    _, top = jax.lax.top_k(flat, num_drop)
+    # Rank without DC, so num_drop coefficients besides it are dropped.
+    _, top = jax.lax.top_k(flat.at[..., 0].set(-1.0), num_drop)
     keep = keep & ~jnp.any(jnp.arange(h * w) == top[..., :, None], axis=-2)
   return keep.reshape(mag.shape)
 

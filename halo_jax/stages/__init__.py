@@ -9,7 +9,7 @@ import fnmatch
 import json
 import os
 
-from halo_jax import checkpoint, datasets, models
+from halo_jax import checkpoint, datasets, models, tuning
 from halo_jax.stages import loop, nerf, ray
 from halo_jax.stages.state import StageState, load, save, stage_dir
 
@@ -54,10 +54,11 @@ def with_budget(config):
 
 
 # Fields that say which stages run, how long or how often to log, evaluate and
-# save; they may change between launches in one workdir. Every other field
-# must match the config the workdir was started with.
-RELAUNCH_FIELDS = ("stages", "budget_s", "eval.*", "*.steps", "*.max_seconds", "*.eval_every",
-                   "*.eval_every_s", "*.log_every", "*.checkpoint_every")
+# save, and the frequency search's settings (a search's choice is kept in
+# <workdir>/tune and reused); they may change between launches in one workdir.
+# Every other field must match the config the workdir was started with.
+RELAUNCH_FIELDS = ("stages", "budget_s", "eval.*", "tune.*", "*.steps", "*.max_seconds",
+                   "*.eval_every", "*.eval_every_s", "*.log_every", "*.checkpoint_every")
 
 
 class WorkdirMismatch(ValueError):
@@ -121,6 +122,10 @@ def run(config, workdir: str, dataset=None) -> dict:
   config = with_budget(config)
   dataset = dataset or datasets.load(config.data, workdir)
   run_now = parse_stages(config.stages)
+  if config.lo.encoding.get("auto", False) and "lo" in needed(config):
+    # The search's own training time is not part of this run's budget.
+    config.lo.encoding.L, config.lo.encoding.scale = tuning.chosen_encoding(
+        config, workdir, dataset)
   log = loop.MetricsLog(workdir)
   states, infos, wall = {}, {}, 0.0
   for name in needed(config):

@@ -1,0 +1,129 @@
+"""The frequency criterion on constructed cases, camera pairs, and the search."""
+import json
+import os
+import subprocess
+import sys
+
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from halo_jax import camera, frequency, stages, tuning
+
+REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+H, W = 32, 40
+
+
+def grating(shift=0.0, k=3, amplitude=50.0):
+  """Grey 128 + A cos(2 pi k (x - shift) / W) as a [1, H, W, 3] image in [0, 1]."""
+  x = np.arange(W)
+  row = 128.0 + amplitude * np.cos(2 * np.pi * k * (x - shift) / W)
+  img = np.broadcast_to(row[None, :, None], (H, W, 3)) / 255.0
+  return jnp.asarray(img[None], jnp.float32)
+
+
+def test_identical_images_give_zero():
+  a = jnp.asarray(np.random.default_rng(0).uniform(size=(3, H, W, 3)), jnp.float32)
+  assert float(frequency.spectrum_difference(a, a)) == 0.0
+
+
+def test_shifted_grating_matches_closed_form():
+  # Unitary FFT: the grating has two coefficients of magnitude A sqrt(HW) / 2;
+  # a shift by d turns each by 2 pi k d / W, so |dF| = A sqrt(HW) |sin(pi k d / W)|
+  # at both, and the mean over the H W - 1 kept coefficients (DC dropped) is
+  # 2 A sqrt(HW) |sin(pi k d / W)| / (H W - 1).
+  k, amp = 3, 50.0
+  for d in (0.5, 2.0, 5.0):
+    got = float(frequency.spectrum_difference(grating(0, k, amp), grating(d, k, amp), 0.0))
+    want = 2 * amp * np.sqrt(H * W) * abs(np.sin(np.pi * k * d / W)) / (H * W - 1)
+    np.testing.assert_allclose(got, want, rtol=1e-4)
+  # A shift by a whole period changes nothing.
+  period = W / k
+  assert float(frequency.spectrum_difference(grating(0, k), grating(period * 3, k), 0.0)) < 1e-4 * amp
+
+
+def test_mask_drops_dc_and_exactly_the_largest_coefficients():
+  a, b = grating(0.0), grating(2.0)
+  fa, fb = (jnp.fft.fft2(frequency.grey_255(x), norm="ortho") for x in (a, b))
+  for num_drop in (0, 2, 10):
+    keep = np.asarray(frequency.spectrum_mask(fa, fb, num_drop / (H * W)))[0]
+    assert keep.sum() == H * W - 1 - num_drop and not keep[0, 0]
+  # Dropping the grating's two coefficients leaves nothing that moved.
+  assert float(frequency.spectrum_difference(a, b, 2 / (H * W))) < 1e-3
+  keep = np.asarray(frequency.spectrum_mask(fa, fb, 2 / (H * W)))[0]
+  assert not keep[0, 3] and not keep[0, W - 3]
+
+
+def test_nearby_pairs_are_angle_apart_on_the_training_sphere():
+  train = np.stack([camera.spherical_camera(4.0, az, el)
+                    for az, el in ((0, 10), (90, 40), (200, 70))])
+  pairs = tuning.nearby_pairs(train, 6, 1.5, seed=0)
+  assert pairs.shape == (6, 2, 4, 4)
+  pa, pb = pairs[:, 0, :3, 3], pairs[:, 1, :3, 3]
+  np.testing.assert_allclose(np.linalg.norm(pa, axis=-1), 4.0, rtol=1e-9)
+  np.testing.assert_allclose(np.linalg.norm(pb, axis=-1), 4.0, rtol=1e-9)
+  elev = np.degrees(np.arcsin(pa[:, 2] / 4.0))
+  assert np.all((elev >= 10 - 1e-6) & (elev <= 70 + 1e-6))
+  # Same elevation, azimuth 1.5 degrees apart: the angle between them is
+  # 2 asin(cos(el) sin(0.75 deg)).
+  ang = np.degrees(np.arccos(np.clip((pa * pb).sum(-1) / 16.0, -1, 1)))
+  want = np.degrees(2 * np.arcsin(np.cos(np.radians(elev)) * np.sin(np.radians(0.75))))
+  np.testing.assert_allclose(ang, want, rtol=1e-4)
+
+
+def test_grid_is_searched_from_high_to_low_frequency():
+  assert tuning.parse_grid("5:32,10:1,5:8,6:1") == [(10, 1.0), (6, 1.0), (5, 8.0), (5, 32.0)]
+  with pytest.raises(ValueError, match="expected 'L:s"):
+    tuning.parse_grid("5-32")
+
+
+def _tiny_tune(config, scene_root, grid, threshold):
+  config.data.root = scene_root
+  config.tune.update(grid=grid, threshold=threshold, num_pairs=2, lo_steps=4)
+  return config
+
+
+def test_search_stops_at_first_point_below_threshold(config, scene_root, tmp_path):
+  from halo_jax import datasets
+  _tiny_tune(config, scene_root, "6:1,3:8", 1e9)
+  ds = datasets.load(config.data)
+  res = tuning.tune(config, str(tmp_path / "a"), ds)
+  assert [(g["L"], g["scale"]) for g in res["grid"]] == [(6, 1.0)]
+  assert res["chosen"] == {"L": 6, "scale": 1.0} and res["below_threshold"]
+  full = tuning.tune(config, str(tmp_path / "b"), ds, full_grid=True)
+  assert [(g["L"], g["scale"]) for g in full["grid"]] == [(6, 1.0), (3, 8.0)]
+  assert all(g["criterion"] > 0 and np.isfinite(g["psnr"]) for g in full["grid"])
+  config.tune.threshold = 0.0
+  none = tuning.tune(config, str(tmp_path / "b"), ds)   # reuses the trained points
+  assert none["chosen"] == {"L": 3, "scale": 8.0} and not none["below_threshold"]
+  saved = json.load(open(os.path.join(tmp_path, "b", "results.json")))
+  assert saved["chosen"] == none["chosen"]
+
+
+def test_auto_encoding_searches_then_trains_lo_with_the_choice(config, scene_root, tmp_path):
+  _tiny_tune(config, scene_root, "6:1,3:8", 0.0)
+  config.stages = "lo"
+  config.lo.encoding.auto = True
+  wd = str(tmp_path / "run")
+  stages.run(config, wd)
+  saved = json.load(open(os.path.join(wd, "lo", "final", "config.json")))
+  assert (saved["lo"]["encoding"]["L"], saved["lo"]["encoding"]["scale"]) == (3, 8.0)
+  assert os.path.exists(os.path.join(wd, "tune", "results.json"))
+
+
+def test_sweep_cli_two_points(scene_root, tmp_path):
+  wd = str(tmp_path / "sweep")
+  cmd = [sys.executable, "experiments/sweep.py", "--config=configs/default.py", f"--workdir={wd}",
+         f"--config.data.root={scene_root}", "--config.stages=lo", "--config.lo.steps=3",
+         "--config.lo.model.width=16", "--config.lo.model.depth=2", "--config.lo.batch_rays=64",
+         "--config.lo.sampler.num_samples=8", "--config.data.factor=2",
+         "--config.data.test_views=r_0", "--config.budget_s=0", "--config.tune.num_pairs=2",
+         "--sweep=lo.encoding.L=3,6", "--sweep=lo.encoding.scale=8"]
+  res = subprocess.run(cmd, cwd=REPO, capture_output=True, text=True, timeout=300)
+  assert res.returncode == 0, res.stderr[-3000:]
+  rows = json.load(open(os.path.join(wd, "results.json")))["points"]
+  assert [r["point"] for r in rows] == [{"lo.encoding.L": 3, "lo.encoding.scale": 8.0},
+                                        {"lo.encoding.L": 6, "lo.encoding.scale": 8.0}]
+  assert all(r["criterion"] is not None and r["psnr"] > 0 for r in rows)
+  assert "| lo.encoding.L=3,lo.encoding.scale=8 |" in res.stdout
+  assert os.path.exists(os.path.join(wd, "sweep.png"))
