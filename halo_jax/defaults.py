@@ -91,6 +91,13 @@ def base_config() -> ml_collections.ConfigDict:
   # auto: choose lo.encoding.L / scale with the frequency criterion before
   # training (halo_jax/tuning.py; the search runs in <workdir>/tune once).
   c.lo.encoding.auto = False
+  c.parallel = ml_collections.ConfigDict(dict(
+      data_parallel=False,   # shard each step's rays over all local (or all hosts') devices
+      multihost=False,       # jax.distributed.initialize before training
+      coordinator="",        # host:port of process 0 ('' : from the cluster environment)
+      num_processes=1,
+      process_id=0,
+  ))
   c.tune = ml_collections.ConfigDict(dict(
       grid="10:1,8:1,6:1,5:1,5:4,5:8,5:16,5:32",  # L:s points, searched high to low frequency
       threshold=25.0,        # the paper's threshold on the criterion

@@ -10,7 +10,7 @@ import json
 from absl import app, flags, logging
 from ml_collections import config_flags
 
-from halo_jax import stages
+from halo_jax import parallel, stages
 
 FLAGS = flags.FLAGS
 config_flags.DEFINE_config_file("config", None, "Config file (path[:variant]).",
@@ -22,6 +22,7 @@ flags.mark_flags_as_required(["config", "workdir"])
 def main(argv):
   del argv
   logging.set_verbosity(logging.WARNING)  # orbax logs every save at INFO
+  parallel.initialize(FLAGS.config.parallel)
   infos = stages.run(FLAGS.config, FLAGS.workdir)
   print(f"{'stage':6} {'steps':>6} {'train s':>8} {'PSNR':>7} {'SSIM':>6} {'LPIPS':>6}")
   for name, info in infos.items():

@@ -9,7 +9,7 @@ import fnmatch
 import json
 import os
 
-from halo_jax import checkpoint, datasets, models, tuning
+from halo_jax import checkpoint, datasets, models, parallel, tuning
 from halo_jax.stages import loop, nerf, ray
 from halo_jax.stages.state import StageState, load, save, stage_dir
 
@@ -57,7 +57,8 @@ def with_budget(config):
 # save, and the frequency search's settings (a search's choice is kept in
 # <workdir>/tune and reused); they may change between launches in one workdir.
 # Every other field must match the config the workdir was started with.
-RELAUNCH_FIELDS = ("stages", "budget_s", "eval.*", "tune.*", "*.steps", "*.max_seconds",
+RELAUNCH_FIELDS = ("stages", "budget_s", "eval.*", "tune.*", "parallel.*", "*.steps",
+                   "*.max_seconds",
                    "*.eval_every", "*.eval_every_s", "*.log_every", "*.checkpoint_every")
 
 
@@ -127,6 +128,7 @@ def run(config, workdir: str, dataset=None) -> dict:
     config.lo.encoding.L, config.lo.encoding.scale = tuning.chosen_encoding(
         config, workdir, dataset)
   log = loop.MetricsLog(workdir)
+  mesh = parallel.make_mesh(config.parallel)
   states, infos, wall = {}, {}, 0.0
   for name in needed(config):
     if name not in run_now:
@@ -135,10 +137,10 @@ def run(config, workdir: str, dataset=None) -> dict:
         wall += json.load(f)["wall_s"]
       continue
     if name == "ray":
-      state, info = ray.train(config, dataset, workdir, states["lo"], log, wall)
+      state, info = ray.train(config, dataset, workdir, states["lo"], log, wall, mesh)
     else:
       state, info = nerf.train(config, dataset, workdir, name, states.get("lo"),
-                               states.get("ray"), log, wall)
+                               states.get("ray"), log, wall, mesh)
     wall += info["wall_s"]
     info.update(step=int(state.step), cumulative_wall_s=wall)
     save(workdir, state)

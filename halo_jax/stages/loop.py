@@ -16,7 +16,7 @@ import jax.numpy as jnp
 import optax
 import tqdm
 
-from halo_jax import checkpoint
+from halo_jax import checkpoint, parallel
 
 
 class MetricsLog:
@@ -27,6 +27,8 @@ class MetricsLog:
     self.path = os.path.join(workdir, "metrics.jsonl")
 
   def write(self, **record):
+    if jax.process_index() != 0:  # multi-host: one log for the job
+      return
     with open(self.path, "a") as f:
       f.write(json.dumps(record) + "\n")
 
@@ -97,7 +99,7 @@ def make_step(loss_fn: Callable, tx: optax.GradientTransformation):
 
 def train(name: str, cfg, workdir: str, params, loss_fn: Callable, data, seed: int,
           eval_fn: Optional[Callable] = None, log: Optional[MetricsLog] = None,
-          wall_offset: float = 0.0):
+          wall_offset: float = 0.0, mesh=None):
   """Trains `params` on `loss_fn` for cfg.steps (or cfg.max_seconds) and returns them.
 
   Args:
@@ -113,6 +115,8 @@ def train(name: str, cfg, workdir: str, params, loss_fn: Callable, data, seed: i
     log: metrics.jsonl writer.
     wall_offset: training seconds spent by earlier stages of the same method,
       added to wall_s in the log so curves of a whole pipeline line up.
+    mesh: data-parallel mesh (parallel.make_mesh) or None; state and data are
+      replicated on it and loss_fn shards its batch.
 
   Returns:
     (params, step, info) with info = {'wall_s', 'skipped'}.
@@ -128,6 +132,8 @@ def train(name: str, cfg, workdir: str, params, loss_fn: Callable, data, seed: i
   if restored is not None:
     wall_s = float(restored.pop("wall_s"))
     train_state = restored
+  train_state = parallel.replicate(train_state, mesh)
+  data = parallel.replicate(data, mesh)
   start = int(train_state["step"])
   log.drop_after(name, start)
   base_key = jax.random.PRNGKey(seed)
@@ -156,7 +162,10 @@ def train(name: str, cfg, workdir: str, params, loss_fn: Callable, data, seed: i
       record = {k: float(v) for k, v in aux.items()}
       log.write(stage=name, step=step, wall_s=wall_offset + wall_s, loss=loss,
                 skipped=int(train_state["skipped"]), **record)
-      bar.set_postfix(loss=f"{loss:.4g}", psnr=f"{record.get('psnr', float('nan')):.2f}")
+      shown = {"loss": f"{loss:.4g}"}
+      if "psnr" in record:
+        shown["psnr"] = f"{record['psnr']:.2f}"
+      bar.set_postfix(**shown)
       last_log = step
     if step % cfg.checkpoint_every == 0:
       checkpoint.save(mngr, step, dict(train_state, wall_s=wall_s))

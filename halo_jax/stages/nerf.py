@@ -13,7 +13,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from halo_jax import camera, evaluate, losses, metrics, models, samplers
+from halo_jax import camera, evaluate, losses, metrics, models, parallel, samplers
 from halo_jax.stages import field, loop
 from halo_jax.stages.state import StageState, stage_dir
 
@@ -86,8 +86,10 @@ def transfer_from_lo(hi_params, lo_params, lo_inputs_first: bool = False):
   return jax.tree_util.tree_map_with_path(pick, hi_params)
 
 
-def _loss_fn(params, data, key, step, *, model, cfg, near, far, white, guide_model, radius):
-  """L_rec (+ coarse L_rec) + lambda L_empty for one batch drawn on device."""
+def _loss_fn(params, data, key, step, *, model, cfg, near, far, white, guide_model, radius,
+             mesh=None):
+  """L_rec (+ coarse L_rec) + lambda L_empty for one batch drawn on device
+  (split over `mesh`'s devices when data-parallel)."""
   k_idx, k_crop, k_ren, k_emp, k_emp_s = jax.random.split(key, 5)
   n_rays = data["origins"].shape[0]
   idx = jax.random.randint(k_idx, (cfg.batch_rays,), 0, n_rays)
@@ -95,6 +97,7 @@ def _loss_fn(params, data, key, step, *, model, cfg, near, far, white, guide_mod
     crop = data["crop_idx"]
     idx_crop = crop[jax.random.randint(k_crop, (cfg.batch_rays,), 0, crop.shape[0])]
     idx = jnp.where(step < cfg.precrop_steps, idx_crop, idx)
+  idx = parallel.shard_batch(idx, mesh)
   o, d, target = data["origins"][idx], data["dirs"][idx], data["rgb"][idx]
   guide = None
   if cfg.sampler.kind == "depth_guided":
@@ -110,6 +113,7 @@ def _loss_fn(params, data, key, step, *, model, cfg, near, far, white, guide_mod
   if cfg.empty.weight > 0:
     bank = data["empty"]
     j = bank["idx"][jax.random.randint(k_emp, (cfg.empty.num_rays,), 0, bank["idx"].shape[0])]
+    j = parallel.shard_batch(j, mesh)
     eo, ed = bank["origins"][j], bank["dirs"][j]
     t = samplers.stratified(k_emp_s, jnp.full(j.shape, near), far, cfg.empty.num_samples)
     acc = field.composite(model, params, eo, ed, t, white)["acc"]
@@ -121,7 +125,7 @@ def _loss_fn(params, data, key, step, *, model, cfg, near, far, white, guide_mod
 
 
 def train(config, dataset, workdir, name, lo_state=None, ray_state=None, log=None,
-          wall_offset=0.0):
+          wall_offset=0.0, mesh=None):
   """Trains the NeRF stage `name` ('lo' or 'hi') and returns its StageState.
 
   Args:
@@ -131,9 +135,12 @@ def train(config, dataset, workdir, name, lo_state=None, ray_state=None, log=Non
     name: 'lo' or 'hi'.
     lo_state: frozen Lo-NeRF (needed for L_empty and init_from_lo).
     ray_state: frozen ray field (needed for the depth-guided sampler).
-    log, wall_offset: see loop.train.
+    log, wall_offset, mesh: see loop.train.
   """
   cfg = config[name]
+  parallel.check_batch(mesh, cfg.batch_rays, f"{name}.batch_rays")
+  if cfg.empty.weight > 0:
+    parallel.check_batch(mesh, cfg.empty.num_rays, f"{name}.empty.num_rays")
   near, far, white = dataset.near, dataset.far, dataset.white_background
   model = models.nerf_from_config(config, name)
   params = init_params(model, config.seed)
@@ -170,7 +177,7 @@ def train(config, dataset, workdir, name, lo_state=None, ray_state=None, log=Non
   bank_s = time.perf_counter() - t0  # rendering the Lo bank counts as training time
   cfg = loop.minus_seconds(cfg, bank_s)
   loss_fn = functools.partial(_loss_fn, model=model, cfg=cfg, near=near, far=far, white=white,
-                              guide_model=guide_model, radius=radius)
+                              guide_model=guide_model, radius=radius, mesh=mesh)
 
   render_eval = field.make_eval_fn(model, cfg.sampler, near=near, far=far,
                                    white_background=white, guide_model=guide_model,
@@ -183,7 +190,7 @@ def train(config, dataset, workdir, name, lo_state=None, ray_state=None, log=Non
                                           config.eval.curve_views)}
 
   params, step, info = loop.train(name, cfg, workdir, params, loss_fn, data, config.seed,
-                                  eval_fn, log, wall_offset + bank_s)
+                                  eval_fn, log, wall_offset + bank_s, mesh)
   info["wall_s"] += bank_s
   state = StageState(params, step, config, name)
   info["eval"] = evaluate.evaluate(make_eval(params), dataset.test, config.eval.chunk,

@@ -5,7 +5,7 @@ import time
 
 import jax
 import jax.numpy as jnp
-from halo_jax import losses, models
+from halo_jax import losses, models, parallel
 from halo_jax.stages import field, loop, nerf
 from halo_jax.stages.state import StageState
 
@@ -15,7 +15,7 @@ def init_params(model, seed):
   return model.init(jax.random.PRNGKey(seed), x, x)["params"]
 
 
-def _loss_fn(params, data, key, step, *, model, radius, far, n_train, n_random):
+def _loss_fn(params, data, key, step, *, model, radius, far, n_train, n_random, mesh=None):
   """L_ray on a batch of training rays and random hemisphere rays."""
   k_t, k_r = jax.random.split(key)
   parts = []
@@ -23,7 +23,8 @@ def _loss_fn(params, data, key, step, *, model, radius, far, n_train, n_random):
     if n:
       i = jax.random.randint(k, (n,), 0, src["origins"].shape[0])
       parts.append({f: v[i] for f, v in src.items()})
-  batch = {f: jnp.concatenate([p[f] for p in parts]) for f in parts[0]}
+  batch = {f: parallel.shard_batch(jnp.concatenate([p[f] for p in parts]), mesh)
+           for f in parts[0]}
   depth, acc = field.ray_field_depth(field.Guide(model, params, radius), batch["origins"],
                                      batch["dirs"])
   loss = losses.ray_field(depth, acc, batch["depth"], batch["acc"], far)
@@ -31,13 +32,15 @@ def _loss_fn(params, data, key, step, *, model, radius, far, n_train, n_random):
                 "acc_mae": jnp.mean(jnp.abs(acc - batch["acc"]))}
 
 
-def train(config, dataset, workdir, lo_state: StageState, log=None, wall_offset=0.0):
+def train(config, dataset, workdir, lo_state: StageState, log=None, wall_offset=0.0,
+          mesh=None):
   """Trains the ray field on Lo-NeRF targets; returns (StageState, info).
 
   Targets are rendered once at the start (training rays and a bank of random
   hemisphere rays); that time counts as this stage's training time.
   """
   cfg = config.ray
+  parallel.check_batch(mesh, cfg.batch_rays, "ray.batch_rays")
   near, far, white = dataset.near, dataset.far, dataset.white_background
   radius = cfg.radius or dataset.radius
   model = models.ray_field_from_config(cfg, near, far)
@@ -59,11 +62,11 @@ def train(config, dataset, workdir, lo_state: StageState, log=None, wall_offset=
   target_s = time.perf_counter() - t0
   data = jax.device_put(data)
   loss_fn = functools.partial(_loss_fn, model=model, radius=radius, far=far,
-                              n_train=cfg.batch_rays - n_random, n_random=n_random)
+                              n_train=cfg.batch_rays - n_random, n_random=n_random, mesh=mesh)
   cfg = loop.minus_seconds(cfg, target_s)
   params, step, info = loop.train("ray", cfg, workdir, init_params(model, config.seed),
                                   loss_fn, data, config.seed, None, log,
-                                  wall_offset + target_s)
+                                  wall_offset + target_s, mesh)
   info["wall_s"] += target_s
   info["target_s"] = target_s
   return StageState(params, step, config, "ray"), info

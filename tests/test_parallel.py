@@ -1,0 +1,54 @@
+"""Data parallelism on 2 CPU devices: same loss trajectory as one device."""
+import json
+import os
+import subprocess
+import sys
+
+import numpy as np
+
+REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+CODE = """
+import json, sys
+sys.path.insert(0, {tests!r})
+import jax, jax.numpy as jnp
+from conftest import tiny_config
+from halo_jax import parallel, stages
+
+assert jax.device_count() == 2, jax.devices()
+c = tiny_config()
+c.parallel.data_parallel = True
+mesh = parallel.make_mesh(c.parallel)
+x = jax.jit(lambda v: parallel.shard_batch(v * 2.0, mesh))(jnp.arange(8.0))
+shards = sorted(tuple(s.data.tolist()) for s in x.addressable_shards)
+out = {{"shards": shards, "losses": {{}}}}
+for dp in (False, True):
+  c = tiny_config()
+  c.data.root = {root!r}
+  c.hi.encoding.with_lo = True
+  c.hi.init_from_lo = True
+  c.parallel.data_parallel = dp
+  for name in ("lo", "ray", "hi"):
+    c[name].update(steps=8, log_every=1)
+  wd = {wd!r} + "/dp" + str(int(dp))
+  stages.run(c, wd)
+  recs = [json.loads(l) for l in open(wd + "/metrics.jsonl")]
+  out["losses"][str(dp)] = [[r["stage"], r["step"], r["loss"]] for r in recs
+                             if "loss" in r and not r.get("heldout")]
+print("RESULT" + json.dumps(out))
+"""
+
+
+def test_two_devices_follow_the_single_device_trajectory(scene_root, tmp_path):
+  env = dict(os.environ, XLA_FLAGS="--xla_force_host_platform_device_count=2",
+             JAX_PLATFORMS="cpu")
+  code = CODE.format(tests=os.path.join(REPO, "tests"), root=scene_root, wd=str(tmp_path))
+  res = subprocess.run([sys.executable, "-c", code], cwd=REPO, env=env, capture_output=True,
+                       text=True, timeout=600)
+  assert res.returncode == 0, res.stderr[-3000:]
+  out = json.loads(res.stdout.split("RESULT")[-1])
+  # The batch really is split: each device holds half of it.
+  assert out["shards"] == [[0.0, 2.0, 4.0, 6.0], [8.0, 10.0, 12.0, 14.0]]
+  one, two = out["losses"]["False"], out["losses"]["True"]
+  assert [r[:2] for r in one] == [r[:2] for r in two] and len(one) == 24
+  np.testing.assert_allclose([r[2] for r in two], [r[2] for r in one], rtol=1e-4)
