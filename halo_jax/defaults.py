@@ -131,9 +131,10 @@ def cpu_sized(c: ml_collections.ConfigDict, budget_s: float) -> ml_collections.C
   The HALO stages share the budget as `budget_shares` says. Measured choices
   (lego 8-view, 100x100; README "CPU protocol"):
   - Lo-NeRF: 128x4 MLP, 32 samples, 4x the paper's learning rate and P.E.
-    scale s=8 instead of 32: at s=32 the nearly linear features need thousands
-    of steps the budget does not have (120 s of Lo training: s=32 17.1 dB held
-    out, s=8 18.8 dB).
+    L=5, s=1 (the paper's one-side Lo setting) instead of s=32: at s=32 the
+    nearly linear features need thousands of steps the budget does not have.
+    90 s Lo-NeRFs (experiments/tune_frequency.py grid): s=32 17.4 dB held out,
+    s=8 19.1, s=1 20.6; whole HALO at 600 s: s=8 21.60 dB, s=1 22.45.
   - Hi-NeRF: the same 128x4 trunk, its Hi-P.E. preceded by Lo's
     (`encoding.with_lo`) and initialised as an exact copy of Lo-NeRF, then
     refined with 32 samples from the ray field (r=0.3). From scratch, 200 s of
@@ -149,7 +150,7 @@ def cpu_sized(c: ml_collections.ConfigDict, budget_s: float) -> ml_collections.C
   c.budget_s = budget_s
   c.budget_shares.update(lo=0.30, ray=0.07, hi=0.63)
   c.eval.chunk = 8192
-  c.lo.encoding.scale = 8.0
+  c.lo.encoding.scale = 1.0
   c.lo.sampler.num_samples = 32
   c.lo.update(batch_rays=1024, steps=1500, lr_init=2e-3, lr_final=2e-4, precrop_steps=200,
               checkpoint_every=500, log_every=50)

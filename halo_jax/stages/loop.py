@@ -35,7 +35,7 @@ class MetricsLog:
   def drop_after(self, stage: str, step: int) -> None:
     """Removes `stage`'s records past `step` (written by a run killed after its
     last checkpoint), so a resumed run logs each step once. Atomic rewrite."""
-    if not os.path.exists(self.path):
+    if jax.process_index() != 0 or not os.path.exists(self.path):
       return
     with open(self.path) as f:
       lines = f.readlines()
