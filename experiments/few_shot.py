@@ -48,6 +48,7 @@ def run_method(config, workdir, dataset):
   last = infos[stages.parse_stages(config.stages)[-1]]
   return {"psnr": last["eval"]["psnr"], "ssim": last["eval"]["ssim"],
           "lpips": last["eval"].get("lpips", float("nan")),
+          **({"flicker": last["eval"]["flicker"]} if "flicker" in last["eval"] else {}),
           "wall_s": sum(i["wall_s"] for i in infos.values()),
           "stages": {n: {"wall_s": i["wall_s"], "step": i["step"],
                          **({"psnr": i["eval"]["psnr"]} if "eval" in i else {})}
@@ -70,12 +71,16 @@ def methods(config, all_views):
 
 
 def write_report(results, workdir, n_test):
-  lines = ["| method | held-out PSNR | SSIM | LPIPS (VGG) | training s |",
-           "|---|---|---|---|---|"]
+  dynamic = any("flicker" in r for r in results.values())
+  lines = ["| method | held-out PSNR | SSIM | LPIPS (VGG) |" + (" flicker |" if dynamic else "")
+           + " training s |", "|---|---|---|---|" + ("---|" if dynamic else "") + "---|"]
   for name, r in results.items():
+    flicker = f" {r.get('flicker', float('nan')):.2f} |" if dynamic else ""
     lines.append(f"| {name} | {r['psnr']:.2f} | {r['ssim']:.3f} | {r.get('lpips', float('nan')):.3f} "
-                 f"| {r['wall_s']:.0f} |")
-  table = "\n".join(lines) + f"\n\n({n_test} held-out views.)\n"
+                 f"|{flicker} {r['wall_s']:.0f} |")
+  note = (" Flicker: mean |I(t+1) - 2 I(t) + I(t-1)| in 8-bit levels over a video at the "
+          "first held-out camera (halo_jax.metrics.temporal_flicker)." if dynamic else "")
+  table = "\n".join(lines) + f"\n\n({n_test} held-out views.{note})\n"
   with open(os.path.join(workdir, "results.md"), "w") as f:
     f.write(table)
   plt.figure(figsize=(6, 4))

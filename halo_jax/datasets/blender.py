@@ -90,7 +90,7 @@ def load_views(root: str, split: str, factor: int = 1,
   missing = [n for n in names if n not in frames]
   if missing:
     raise DataError(f"{path}: views {missing} named in the config are not in 'frames'")
-  images, poses = [], []
+  images, poses, times = [], [], []
   for n in names:
     fr = frames[n]
     fp = fr["file_path"]
@@ -116,6 +116,23 @@ def load_views(root: str, split: str, factor: int = 1,
                       "not [0, 0, 0, 1]")
     images.append(img)
     poses.append(pose)
+    times.append(_frame_time(fr, path, n))
   width = images[0].shape[1]
   focal = 0.5 * width / np.tan(0.5 * float(meta["camera_angle_x"]))
-  return Views(np.stack(images), np.stack(poses).astype(np.float32), float(focal), tuple(names))
+  has_time = [t is not None for t in times]
+  if any(has_time) and not all(has_time):
+    raise DataError(f"{path}: field 'time' is on some frames but not on "
+                    f"{names[has_time.index(False)]}")
+  times = np.asarray(times, np.float32) if all(has_time) else None
+  return Views(np.stack(images), np.stack(poses).astype(np.float32), float(focal), tuple(names),
+               times)
+
+
+def _frame_time(frame, path, name):
+  """A D-NeRF frame's 'time' in [0, 1], or None when the frame has none."""
+  if "time" not in frame:
+    return None
+  t = frame["time"]
+  if isinstance(t, bool) or not isinstance(t, (int, float)) or not 0.0 <= t <= 1.0:
+    raise DataError(f"{path}: field 'time' of {name} must be a number in [0, 1], got {t!r}")
+  return float(t)

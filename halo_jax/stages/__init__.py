@@ -10,7 +10,7 @@ import json
 import os
 
 from halo_jax import checkpoint, datasets, models, parallel, tuning
-from halo_jax.stages import loop, nerf, ray
+from halo_jax.stages import epi, loop, nerf, ray
 from halo_jax.stages.state import StageState, load, save, stage_dir
 
 ORDER = ("lo", "ray", "hi")
@@ -30,7 +30,10 @@ def needed(config, stage_list=None) -> tuple:
   if "hi" in want:
     if config.hi.sampler.kind == "depth_guided":
       want.add("ray")
-    if config.hi.empty.weight > 0 or config.hi.init_from_lo:
+    # The 3D joint sampler takes its L_consist targets from Lo-NeRF; the
+    # light-field one ('epi') from its own radiance field.
+    joint_3d = config.hi.sampler.kind == "joint" and config.hi.model.kind != "epi"
+    if config.hi.empty.weight > 0 or config.hi.init_from_lo or joint_3d:
       want.add("lo")
   if "ray" in want:
     want.add("lo")
@@ -103,10 +106,16 @@ def check_workdir(config, workdir: str) -> None:
 
 
 def _params_like(config, name, dataset):
+  if config[name].get("model", {}).get("kind") == "epi":
+    return epi.params_like(config, name)
   if name == "ray":
     m = models.ray_field_from_config(config.ray, dataset.near, dataset.far)
     return ray.init_params(m, config.seed)
-  return nerf.init_params(models.nerf_from_config(config, name), config.seed)
+  params = nerf.init_params(models.nerf_from_config(config, name), config.seed)
+  if config[name].sampler.kind == "joint":
+    m = models.ray_field_from_config(config.ray, dataset.near, dataset.far)
+    return {"nerf": params, "ray": nerf.init_params_ray(m, config.seed)}
+  return params
 
 
 def _info_path(workdir, name):
@@ -138,6 +147,8 @@ def run(config, workdir: str, dataset=None) -> dict:
       continue
     if name == "ray":
       state, info = ray.train(config, dataset, workdir, states["lo"], log, wall, mesh)
+    elif config[name].model.kind == "epi":
+      state, info = epi.train(config, dataset, workdir, name, log, wall, mesh)
     else:
       state, info = nerf.train(config, dataset, workdir, name, states.get("lo"),
                                states.get("ray"), log, wall, mesh)

@@ -110,8 +110,8 @@ def train(name: str, cfg, workdir: str, params, loss_fn: Callable, data, seed: i
     loss_fn: (params, data, key, step) -> (loss, aux dict of scalars).
     data: pytree of device arrays the loss reads (rays, targets, ...).
     seed: base PRNG seed.
-    eval_fn: params -> dict of held-out metrics (e.g. {'psnr': ...}); its time
-      is not counted as training time.
+    eval_fn: (params, step) -> dict of held-out metrics (e.g. {'psnr': ...});
+      its time is not counted as training time.
     log: metrics.jsonl writer.
     wall_offset: training seconds spent by earlier stages of the same method,
       added to wall_s in the log so curves of a whole pipeline line up.
@@ -142,7 +142,7 @@ def train(name: str, cfg, workdir: str, params, loss_fn: Callable, data, seed: i
   def evaluate(step):
     nonlocal last_eval_step
     last_eval_step = step
-    metrics = {k: float(v) for k, v in eval_fn(train_state["params"]).items()}
+    metrics = {k: float(v) for k, v in eval_fn(train_state["params"], step).items()}
     log.write(stage=name, step=step, wall_s=wall_offset + wall_s, heldout=True, **metrics)
     return metrics
 

@@ -13,29 +13,41 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from halo_jax import camera, evaluate, losses, metrics, models, parallel, samplers
+from halo_jax import (camera, evaluate, lightfield, losses, metrics, models, parallel,
+                      samplers)
 from halo_jax.stages import field, loop
 from halo_jax.stages.state import StageState, stage_dir
 
 
 def init_params(model, seed):
   pts = jnp.zeros((1, 3))
+  if isinstance(model, models.DeformNeRF):
+    return model.init(jax.random.PRNGKey(seed), pts, pts, times=jnp.zeros((1, 1)))["params"]
   return model.init(jax.random.PRNGKey(seed), pts, pts)["params"]
+
+
+def init_params_ray(model, seed):
+  x = jnp.zeros((1, 3))
+  return model.init(jax.random.PRNGKey(seed), x, x)["params"]
 
 
 def training_rays(views, precrop_frac):
   """All training pixels as flat rays, plus the indices inside the centre crop.
 
-  Returns dict of numpy arrays: origins, dirs, rgb [R, 3], crop_idx [Rc].
+  Returns dict of numpy arrays: origins, dirs, rgb [R, 3], crop_idx [Rc], and
+  for a dynamic scene times [R, 1].
   """
   o, d = views.rays()
   n, h, w = views.images.shape[:3]
   dh, dw = int(h * precrop_frac / 2), int(w * precrop_frac / 2)
   mask = np.zeros((n, h, w), bool)
   mask[:, h // 2 - dh:h // 2 + dh, w // 2 - dw:w // 2 + dw] = True
-  return {"origins": o.reshape(-1, 3), "dirs": d.reshape(-1, 3),
-          "rgb": views.images.reshape(-1, 3),
-          "crop_idx": np.flatnonzero(mask.reshape(-1)).astype(np.int32)}
+  out = {"origins": o.reshape(-1, 3), "dirs": d.reshape(-1, 3),
+         "rgb": views.images.reshape(-1, 3),
+         "crop_idx": np.flatnonzero(mask.reshape(-1)).astype(np.int32)}
+  if views.times is not None:
+    out["times"] = np.ascontiguousarray(views.ray_times().reshape(-1, 1))
+  return out
 
 
 def random_ray_bank(lo_state: StageState, num_rays, radius, focal_over_width, near, far,
@@ -46,16 +58,26 @@ def random_ray_bank(lo_state: StageState, num_rays, radius, focal_over_width, ne
   rays are exact targets; rendering them once instead of every step is the
   saving (the bank's size is the only approximation).
 
-  Returns dict: origins, dirs [B, 3], depth, acc [B] (numpy).
+  For a dynamic Lo field every ray also gets a random time in [0, 1] (the
+  regulariser then covers times no training view shows).
+
+  Returns dict: origins, dirs [B, 3], depth, acc [B] (numpy), times [B, 1]
+  (dynamic only).
   """
   lo_model = models.nerf_from_config(lo_state.config, "lo")
-  o, d = camera.random_hemisphere_rays(jax.random.PRNGKey(seed), num_rays, radius,
-                                       focal_over_width)
-  fn = lambda oo, dd: dict(zip(("depth", "acc"), field.lo_targets(
+  k_rays, k_time = jax.random.split(jax.random.PRNGKey(seed))
+  o, d = camera.random_hemisphere_rays(k_rays, num_rays, radius, focal_over_width)
+  times = None
+  if models.is_dynamic(lo_state.config, "lo"):
+    times = np.asarray(jax.random.uniform(k_time, (num_rays, 1)))
+  fn = lambda oo, dd, tt=None: dict(zip(("depth", "acc"), field.lo_targets(
       lo_model, lo_state.params, oo, dd, num_samples=num_samples, near=near, far=far,
-      white_background=white_background, target=target)))
-  out = field.render_chunked(jax.jit(fn), np.asarray(o), np.asarray(d), chunk)
-  return {"origins": np.asarray(o), "dirs": np.asarray(d), **out}
+      white_background=white_background, target=target, times=tt)))
+  out = field.render_chunked(jax.jit(fn), np.asarray(o), np.asarray(d), chunk, times)
+  bank = {"origins": np.asarray(o), "dirs": np.asarray(d), **out}
+  if times is not None:
+    bank["times"] = times
+  return bank
 
 
 def transfer_from_lo(hi_params, lo_params, lo_inputs_first: bool = False):
@@ -86,10 +108,20 @@ def transfer_from_lo(hi_params, lo_params, lo_inputs_first: bool = False):
   return jax.tree_util.tree_map_with_path(pick, hi_params)
 
 
+def joint_window(cfg, step):
+  """The joint sampler's half window at `step` (a fraction of far - near):
+  alpha, falling linearly from 1 to joint.alpha_final (SPEC sec. 4)."""
+  return lightfield.alpha_schedule(step, cfg.joint.alpha_steps, cfg.joint.alpha_final)
+
+
 def _loss_fn(params, data, key, step, *, model, cfg, near, far, white, guide_model, radius,
              mesh=None):
-  """L_rec (+ coarse L_rec) + lambda L_empty for one batch drawn on device
-  (split over `mesh`'s devices when data-parallel)."""
+  """L_rec (+ coarse L_rec) + lambda L_empty (+ L_consist for the joint
+  sampler) for one batch drawn on device (split over `mesh`'s devices when
+  data-parallel)."""
+  joint = cfg.sampler.kind == "joint"
+  if joint:
+    params, ray_params = params["nerf"], params["ray"]
   k_idx, k_crop, k_ren, k_emp, k_emp_s = jax.random.split(key, 5)
   n_rays = data["origins"].shape[0]
   idx = jax.random.randint(k_idx, (cfg.batch_rays,), 0, n_rays)
@@ -99,24 +131,36 @@ def _loss_fn(params, data, key, step, *, model, cfg, near, far, white, guide_mod
     idx = jnp.where(step < cfg.precrop_steps, idx_crop, idx)
   idx = parallel.shard_batch(idx, mesh)
   o, d, target = data["origins"][idx], data["dirs"][idx], data["rgb"][idx]
-  guide = None
+  times = data["times"][idx] if "times" in data else None
+  guide, window = None, None
   if cfg.sampler.kind == "depth_guided":
     guide = field.Guide(guide_model, data["guide"], radius)
+  elif joint:
+    guide = field.Guide(guide_model, ray_params, radius)
+    window = joint_window(cfg, step)
   outs = field.render_rays(model, cfg.sampler, params, o, d, k_ren, near=near, far=far,
                            white_background=white, randomized=True,
-                           noise=cfg.density_noise, guide=guide)
+                           noise=cfg.density_noise, guide=guide, times=times, window=window)
   rec = losses.reconstruction(outs[-1]["rgb"], target)
   loss = rec
   if len(outs) > 1:
     loss = loss + cfg.sampler.coarse_weight * losses.reconstruction(outs[0]["rgb"], target)
   aux = {"psnr": metrics.mse_to_psnr(rec)}
+  if joint:
+    # L_consist: the ray field trained in this step follows the frozen Lo
+    # field's depth and opacity on these rays (L_ray's form).
+    depth, acc = field.ray_field_depth(guide, o, d)
+    consist = losses.ray_field(depth, acc, data["lo_depth"][idx], data["lo_acc"][idx], far)
+    loss = loss + cfg.joint.consist_weight * consist
+    aux.update(consist=consist, alpha=window)
   if cfg.empty.weight > 0:
     bank = data["empty"]
     j = bank["idx"][jax.random.randint(k_emp, (cfg.empty.num_rays,), 0, bank["idx"].shape[0])]
     j = parallel.shard_batch(j, mesh)
     eo, ed = bank["origins"][j], bank["dirs"][j]
+    et = bank["times"][j] if "times" in bank else None
     t = samplers.stratified(k_emp_s, jnp.full(j.shape, near), far, cfg.empty.num_samples)
-    acc = field.composite(model, params, eo, ed, t, white)["acc"]
+    acc = field.composite(model, params, eo, ed, t, white, times=et)["acc"]
     l_empty = losses.empty_space(acc, bank["acc"][j], cfg.empty.tau)
     weight = jnp.where(step >= cfg.empty.start_step, cfg.empty.weight, 0.0)
     loss = loss + weight * l_empty
@@ -142,6 +186,15 @@ def train(config, dataset, workdir, name, lo_state=None, ray_state=None, log=Non
   if cfg.empty.weight > 0:
     parallel.check_batch(mesh, cfg.empty.num_rays, f"{name}.empty.num_rays")
   near, far, white = dataset.near, dataset.far, dataset.white_background
+  dynamic = models.is_dynamic(config, name)
+  if dynamic != (dataset.train.times is not None):
+    raise ValueError(
+        f"{name}.model.kind={cfg.model.kind!r} but the data ({config.data.kind!r}) is "
+        f"{'dynamic (frames carry times)' if dataset.train.times is not None else 'static'}: "
+        "use model.kind='deform' for dynamic scenes and 'nerf' for static ones")
+  if dynamic and field.uses_guide(cfg.sampler):
+    raise ValueError(f"{name}.sampler.kind='depth_guided' needs a ray field, which has no "
+                     "time input; dynamic scenes use 'stratified' or 'hierarchical'")
   model = models.nerf_from_config(config, name)
   params = init_params(model, config.seed)
   if cfg.init_from_lo:
@@ -162,6 +215,22 @@ def train(config, dataset, workdir, name, lo_state=None, ray_state=None, log=Non
     radius = ray_state.config.ray.radius or dataset.radius
     data["guide"] = ray_state.params
   t0 = time.perf_counter()
+  joint = cfg.sampler.kind == "joint"
+  if joint:
+    # The ray field trains with this stage; its targets are the frozen
+    # Lo-NeRF's depth and opacity on the training rays (rendered once).
+    if lo_state is None:
+      raise ValueError(f"{name}.sampler.kind='joint' needs a finished 'lo' stage")
+    guide_model = models.ray_field_from_config(config.ray, near, far)
+    radius = config.ray.radius or dataset.radius
+    params = {"nerf": params, "ray": init_params_ray(guide_model, config.seed)}
+    lo_model = models.nerf_from_config(lo_state.config, "lo")
+    fn = lambda oo, dd: dict(zip(("depth", "acc"), field.lo_targets(
+        lo_model, lo_state.params, oo, dd, num_samples=lo_state.config.lo.sampler.num_samples,
+        near=near, far=far, white_background=white, target=config.ray.depth_target)))
+    targets = field.render_chunked(jax.jit(fn), data["origins"], data["dirs"],
+                                   config.eval.chunk)
+    data.update(lo_depth=targets["depth"], lo_acc=targets["acc"])
   if cfg.empty.weight > 0:
     if lo_state is None:
       raise ValueError(f"{name}.empty.weight > 0 needs a finished 'lo' stage")
@@ -173,6 +242,8 @@ def train(config, dataset, workdir, name, lo_state=None, ray_state=None, log=Non
       empty_idx = np.arange(bank["acc"].shape[0], dtype=np.int32)
     data["empty"] = {"origins": bank["origins"], "dirs": bank["dirs"], "acc": bank["acc"],
                      "idx": empty_idx}
+    if "times" in bank:
+      data["empty"]["times"] = bank["times"]
   data = jax.device_put(data)
   bank_s = time.perf_counter() - t0  # rendering the Lo bank counts as training time
   cfg = loop.minus_seconds(cfg, bank_s)
@@ -182,18 +253,28 @@ def train(config, dataset, workdir, name, lo_state=None, ray_state=None, log=Non
   render_eval = field.make_eval_fn(model, cfg.sampler, near=near, far=far,
                                    white_background=white, guide_model=guide_model,
                                    radius=radius)
-  guide_params = ray_state.params if guide_model is not None else None
-  make_eval = lambda p: functools.partial(render_eval, p, guide_params)
+  guide_params = ray_state.params if cfg.sampler.kind == "depth_guided" else None
 
-  def eval_fn(params):
-    return {"psnr": evaluate.heldout_psnr(make_eval(params), dataset.test, config.eval.chunk,
-                                          config.eval.curve_views)}
+  def make_eval(p, step=None):
+    if joint:  # the window the joint sampler trains with at this step
+      return functools.partial(render_eval, p["nerf"], p["ray"],
+                               window=joint_window(cfg, cfg.steps if step is None else step))
+    return functools.partial(render_eval, p, guide_params)
+
+  def eval_fn(params, step=None):
+    return {"psnr": evaluate.heldout_psnr(make_eval(params, step), dataset.test,
+                                          config.eval.chunk, config.eval.curve_views)}
 
   params, step, info = loop.train(name, cfg, workdir, params, loss_fn, data, config.seed,
                                   eval_fn, log, wall_offset + bank_s, mesh)
   info["wall_s"] += bank_s
   state = StageState(params, step, config, name)
-  info["eval"] = evaluate.evaluate(make_eval(params), dataset.test, config.eval.chunk,
-                                   os.path.join(stage_dir(workdir, name), "eval"), near, far,
-                                   config.eval.save_images, config.eval.lpips)
+  eval_dir = os.path.join(stage_dir(workdir, name), "eval")
+  info["eval"] = evaluate.evaluate(make_eval(params, step), dataset.test, config.eval.chunk,
+                                   eval_dir, near, far, config.eval.save_images,
+                                   config.eval.lpips)
+  if dynamic:
+    info["eval"]["flicker"] = evaluate.flicker(
+        make_eval(params, step), dataset.test, config.eval.chunk, config.eval.flicker_frames,
+        eval_dir if config.eval.save_images else None)
   return state, info

@@ -19,7 +19,7 @@ def _loss_fn(params, data, key, step, *, model, radius, far, n_train, n_random, 
   """L_ray on a batch of training rays and random hemisphere rays."""
   k_t, k_r = jax.random.split(key)
   parts = []
-  for k, src, n in ((k_t, data["train"], n_train), (k_r, data["random"], n_random)):
+  for k, src, n in ((k_t, data["train"], n_train), (k_r, data.get("random"), n_random)):
     if n:
       i = jax.random.randint(k, (n,), 0, src["origins"].shape[0])
       parts.append({f: v[i] for f, v in src.items()})

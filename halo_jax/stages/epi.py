@@ -1,0 +1,149 @@
+"""The radiance-field stage for two-plane light fields (SPEC sec. 4).
+
+The field is an EPINeRF over (s', t', theta); every ray is rendered over the
+angle range [theta_n, theta_f], parameterised by tau in [0, 1].
+- sampler.kind='stratified': samples over the whole range (the NeRF baseline).
+- sampler.kind='joint' (HALO): a low-frequency EPIRayField, trained in the
+  same step, predicts tau_ray for each ray; the samples fill
+  tau_ray +- alpha, alpha falling from 1 to joint.alpha_final, and the ray
+  field follows the radiance field's expected tau through
+  L_consist = |tau_ray - tau_nerf|^2 (tau_nerf held fixed in that loss).
+"""
+import functools
+import os
+
+import jax
+import jax.numpy as jnp
+from halo_jax import evaluate, lightfield, losses, metrics, models, parallel, render, samplers
+from halo_jax.stages import loop
+from halo_jax.stages.state import StageState, stage_dir
+
+
+def init_params(model, ray_model, seed):
+  """{'nerf': ...} plus {'ray': ...} for the joint sampler."""
+  k_nerf, k_ray = jax.random.split(jax.random.PRNGKey(seed))
+  params = {"nerf": model.init(k_nerf, jnp.zeros((1, 3)), jnp.zeros((1, 2)))["params"]}
+  if ray_model is not None:
+    params["ray"] = ray_model.init(k_ray, jnp.zeros((1, 4)))["params"]
+  return params
+
+
+def models_from_config(config, name):
+  cfg = config[name]
+  ray_model = models.epi_ray_field_from_config(cfg.joint) if cfg.sampler.kind == "joint" else None
+  return models.nerf_from_config(config, name), ray_model
+
+
+def render_rays(model, ray_model, cfg, params, uv, st, key, alpha, *, theta_n, theta_f,
+                randomized, noise=0.0):
+  """Renders two-plane rays.
+
+  Args:
+    model, ray_model: EPINeRF and EPIRayField (None unless sampler 'joint').
+    cfg: the stage config (sampler, joint).
+    params: {'nerf'[, 'ray']}.
+    uv, st: [R, 2] rays.
+    key: PRNG key; alpha: the joint window scale (scalar).
+    theta_n, theta_f: the angle range.
+    randomized: jitter samples; noise: density noise std.
+
+  Returns:
+    render dict (rgb, depth = expected tau, acc, weights, ...) plus tau_ray
+    [R] for the joint sampler.
+  """
+  k_s, k_n = jax.random.split(key)
+  n = cfg.sampler.num_samples
+  zeros = jnp.zeros(uv.shape[:-1], jnp.float32)
+  tau_ray = None
+  if cfg.sampler.kind == "joint":
+    tau_ray = ray_model.apply({"params": params["ray"]}, jnp.concatenate([uv, st], -1))
+    edges = samplers.depth_guided(k_s, jax.lax.stop_gradient(tau_ray), zeros, 1.0, n, alpha,
+                                  randomized=randomized)
+  elif cfg.sampler.kind == "stratified":
+    edges = samplers.stratified(k_s, zeros, 1.0, n, randomized)
+  else:
+    raise ValueError(f"sampler.kind={cfg.sampler.kind!r}: light fields use 'stratified' "
+                     "or 'joint'")
+  tau_mid = render.interval_midpoints(edges)
+  theta = lightfield.theta_of_tau(tau_mid, theta_n, theta_f)
+  pts = lightfield.epi_points(uv[..., None, :], st[..., None, :], theta)
+  views = jnp.broadcast_to(uv[..., None, :], (*pts.shape[:-1], 2))
+  sigma, rgb = model.apply({"params": params["nerf"]}, pts, views, k_n, noise)
+  out = render.volume_render(sigma, rgb, edges, white_background=False)
+  out["tau_ray"] = tau_ray
+  return out
+
+
+def _alpha(cfg, step):
+  return lightfield.alpha_schedule(step, cfg.joint.alpha_steps, cfg.joint.alpha_final)
+
+
+def _loss_fn(params, data, key, step, *, model, ray_model, cfg, theta_n, theta_f, mesh=None):
+  """L_rec (+ consist_weight * L_consist for the joint sampler)."""
+  k_idx, k_ren = jax.random.split(key)
+  idx = parallel.shard_batch(
+      jax.random.randint(k_idx, (cfg.batch_rays,), 0, data["rgb"].shape[0]), mesh)
+  out = render_rays(model, ray_model, cfg, params, data["uv"][idx], data["st"][idx], k_ren,
+                    _alpha(cfg, step), theta_n=theta_n, theta_f=theta_f, randomized=True,
+                    noise=cfg.density_noise)
+  rec = losses.reconstruction(out["rgb"], data["rgb"][idx])
+  aux = {"psnr": metrics.mse_to_psnr(rec)}
+  loss = rec
+  if out["tau_ray"] is not None:
+    tau_nerf = jax.lax.stop_gradient(render.normalized_depth(out["depth"], out["acc"]))
+    consist = jnp.mean((out["tau_ray"] - tau_nerf) ** 2)
+    loss = loss + cfg.joint.consist_weight * consist
+    aux.update(consist=consist, alpha=_alpha(cfg, step))
+  return loss, aux
+
+
+def training_rays(views):
+  """Flat training rays: uv, st [R, 2], rgb [R, 3] (numpy)."""
+  o, d = views.rays()
+  return {"uv": o[..., :2].reshape(-1, 2), "st": d[..., :2].reshape(-1, 2),
+          "rgb": views.images.reshape(-1, 3)}
+
+
+def make_eval_fn(model, ray_model, cfg, theta_n, theta_f):
+  """Jitted (params, alpha, origins, dirs) -> {rgb, depth (expected tau), acc};
+  origins (u, v, 0) and dirs (s, t, 1) as LightFieldViews.rays() gives them."""
+  @jax.jit
+  def fn(params, alpha, o, d):
+    out = render_rays(model, ray_model, cfg, params, o[..., :2], d[..., :2],
+                      jax.random.PRNGKey(0), alpha, theta_n=theta_n, theta_f=theta_f,
+                      randomized=False)
+    return {"rgb": out["rgb"], "depth": render.normalized_depth(out["depth"], out["acc"]),
+            "acc": out["acc"]}
+  return fn
+
+
+def train(config, dataset, workdir, name="hi", log=None, wall_offset=0.0, mesh=None):
+  """Trains the light-field stage `name`; returns (StageState, info)."""
+  cfg = config[name]
+  parallel.check_batch(mesh, cfg.batch_rays, f"{name}.batch_rays")
+  model, ray_model = models_from_config(config, name)
+  theta_n, theta_f = dataset.near, dataset.far
+  data = jax.device_put(training_rays(dataset.train))
+  loss_fn = functools.partial(_loss_fn, model=model, ray_model=ray_model, cfg=cfg,
+                              theta_n=theta_n, theta_f=theta_f, mesh=mesh)
+  render_eval = make_eval_fn(model, ray_model, cfg, theta_n, theta_f)
+
+  def eval_fn(params, step):
+    # the joint sampler renders with the window it trains with at this step
+    fn = functools.partial(render_eval, params, _alpha(cfg, step))
+    return {"psnr": evaluate.heldout_psnr(fn, dataset.test, config.eval.chunk,
+                                          config.eval.curve_views)}
+
+  params, step, info = loop.train(name, cfg, workdir,
+                                  init_params(model, ray_model, config.seed), loss_fn,
+                                  data, config.seed, eval_fn, log, wall_offset, mesh)
+  final = functools.partial(render_eval, params, _alpha(cfg, step))
+  info["eval"] = evaluate.evaluate(final, dataset.test, config.eval.chunk,
+                                   os.path.join(stage_dir(workdir, name), "eval"), 0.0, 1.0,
+                                   config.eval.save_images, config.eval.lpips)
+  return StageState(params, step, config, name), info
+
+
+def params_like(config, name):
+  model, ray_model = models_from_config(config, name)
+  return init_params(model, ray_model, config.seed)

@@ -1,0 +1,150 @@
+"""Two-plane light fields: EPI alignment against ray geometry, the alpha
+schedule, the Stanford loader, and smoke runs of the joint and baseline stages."""
+import json
+import os
+
+import imageio.v3 as iio
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from conftest import SHARED_DATA
+from halo_jax import datasets, lightfield, stages
+from halo_jax.datasets import stanford_lf
+
+KNIGHTS = os.path.join(SHARED_DATA, "stanford_lf", "knights")
+
+
+def two_plane_ray_hits(u, point):
+  """Where the ray from camera (u, 0) on the plane z=0 through a 3D point
+  (X, Z) meets the image plane z=1: s = u + (X - u) / Z."""
+  x, z = point
+  return u + (x - u) / z
+
+
+def test_epi_alignment_matches_ray_geometry():
+  # A 3D point (X, Y, Z) seen from two cameras: the image-plane hits differ,
+  # the aligned (s', t', theta) must not, and s' is what the camera at
+  # (u*, v*) = (0, 0) sees. Geometry: ds/du = 1 - 1/Z, so delta = 1/Z - 1.
+  X, Y, Z = 0.3, -0.2, 1.7
+  delta = 1.0 / Z - 1.0
+  theta = np.arctan2(1.0, delta)
+  cams = np.array([[-0.5, -0.5], [0.5, 0.25]])
+  st = np.stack([[two_plane_ray_hits(u, (X, Z)), two_plane_ray_hits(v, (Y, Z))]
+                 for u, v in cams])
+  assert not np.allclose(st[0], st[1])
+  pts = lightfield.epi_points(jnp.asarray(cams), jnp.asarray(st), jnp.full((2,), theta))
+  np.testing.assert_allclose(pts[0], pts[1], atol=1e-6)
+  np.testing.assert_allclose(pts[0, :2], [X / Z, Y / Z], atol=1e-6)  # the centre camera's view
+  np.testing.assert_allclose(pts[0, 2], theta, atol=1e-7)
+
+
+def test_alpha_schedule_values():
+  got = [float(lightfield.alpha_schedule(s, 20000, 0.5)) for s in (0, 5000, 10000, 20000, 40000)]
+  np.testing.assert_allclose(got, [1.0, 0.875, 0.75, 0.5, 0.5])
+
+
+def test_theta_bounds():
+  # zero disparity is theta = pi/2; larger disparity (nearer) is smaller theta
+  n, f = stanford_lf.theta_bounds((-1.0, 2.0), 256, 17)
+  assert n < np.pi / 2 < f
+  np.testing.assert_allclose(1 / np.tan(n), 2.0 * (2 / 256) * 8, rtol=1e-6)
+  np.testing.assert_allclose(1 / np.tan(f), -1.0 * (2 / 256) * 8, rtol=1e-6)
+  with pytest.raises(datasets.DataError, match="min < max"):
+    stanford_lf.theta_bounds((1.0, 1.0), 256, 17)
+
+
+def write_light_field(root, grid=5, size=16, disparity_px=0.5):
+  """A fronto-parallel textured plane seen from a grid x grid camera array:
+  view (r, c) shifts the texture by disparity_px pixels per grid step."""
+  os.makedirs(root, exist_ok=True)
+  x = np.arange(size)
+  centre = (grid - 1) / 2
+  for r in range(grid):
+    for c in range(grid):
+      sx, sy = np.broadcast_arrays(x[None, :] - (c - centre) * disparity_px,
+                                   x[:, None] - (r - centre) * disparity_px)
+      img = np.stack([0.5 + 0.4 * np.sin(sx * 0.7), 0.5 + 0.4 * np.cos(sy * 0.5),
+                      0.5 + 0.2 * np.sin((sx + sy) * 0.3)], -1)
+      iio.imwrite(os.path.join(root, f"out_{r:02d}_{c:02d}_0.0_0.0.png"),
+                  (img * 255).round().astype(np.uint8))
+  return root
+
+
+def lf_config(root):
+  from configs import stanford_lf as cfg_lf
+  c = cfg_lf.get_config("scene_cpu")
+  c.data.update(root=root, train_views="00_00,00_04,04_00,04_04", test_views="02_02,01_03",
+                disparity_px=(-1.0, 1.0))
+  c.budget_s = 0.0
+  c.eval.update(chunk=256, curve_views=1, lpips=False)
+  c.hi.model.update(width=16, depth=2)
+  c.hi.joint.model.update(width=16, depth=2)
+  c.hi.sampler.num_samples = 8
+  c.hi.update(batch_rays=64, steps=6, checkpoint_every=3, log_every=2, eval_every=3)
+  c.hi.joint.alpha_steps = 4
+  return c
+
+
+def test_loader_coordinates(tmp_path):
+  root = write_light_field(str(tmp_path / "lf"))
+  ds = datasets.load(lf_config(root).data)
+  np.testing.assert_allclose(ds.train.uv, [[-1, -1], [1, -1], [-1, 1], [1, 1]])
+  np.testing.assert_allclose(ds.test.uv, [[0, 0], [0.5, -0.5]])
+  o, d = ds.test.rays()
+  assert o.shape == d.shape == (2, 16, 16, 3)
+  np.testing.assert_allclose(d[0, 0, 0], [-15 / 16, -15 / 16, 1])
+  assert ds.near < np.pi / 2 < ds.far
+
+
+@pytest.mark.parametrize("change, message", [
+    (dict(root="/nonexistent/lf"), "light-field folder not found"),
+    (dict(test_views="09_09"), r"views \['09_09'\] named in the config are not in the grid"),
+])
+def test_bad_light_field_input(tmp_path, change, message):
+  root = write_light_field(str(tmp_path / "lf"))
+  c = lf_config(root)
+  c.data.update(**change)
+  with pytest.raises(datasets.DataError, match=message):
+    datasets.load(c.data)
+
+
+def test_other_size_view_named(tmp_path):
+  root = write_light_field(str(tmp_path / "lf"))
+  iio.imwrite(os.path.join(root, "out_04_04_0.0_0.0.png"), np.zeros((8, 8, 3), np.uint8))
+  with pytest.raises(datasets.DataError, match="out_04_04_0.0_0.0.png: size 8x8"):
+    datasets.load(lf_config(root).data)
+
+
+@pytest.mark.parametrize("baseline", [False, True])
+def test_joint_and_baseline_smoke(tmp_path, baseline):
+  from halo_jax import defaults
+  root = write_light_field(str(tmp_path / "lf"))
+  c = lf_config(root)
+  if baseline:
+    defaults.as_nerf_baseline(c)
+  assert stages.needed(c) == ("hi",)
+  wd = str(tmp_path / "run")
+  infos = stages.run(c, wd)
+  ev = infos["hi"]["eval"]
+  assert 5.0 < ev["psnr"] < 60.0
+  log = [json.loads(l) for l in open(os.path.join(wd, "metrics.jsonl"))]
+  train = [r for r in log if "loss" in r]
+  assert all(np.isfinite(r["loss"]) for r in train)
+  if not baseline:
+    # logged at steps 2, 4, 6 from the step counts 1, 3, 5 the loss saw
+    assert [r["alpha"] for r in train] == pytest.approx([0.875, 0.625, 0.5])
+    assert all(r["consist"] >= 0 for r in train)
+  else:
+    assert all("consist" not in r for r in train)
+
+
+@pytest.mark.skipif(not os.path.exists(KNIGHTS), reason="shared Stanford data absent")
+def test_knights_views_and_bounds():
+  from configs import stanford_lf as cfg_lf
+  c = cfg_lf.get_config("knights_cpu")
+  c.data.root = KNIGHTS
+  ds = datasets.load(c.data)
+  assert ds.train.names == ("04_04", "04_12", "12_04", "12_12")
+  np.testing.assert_allclose(ds.train.uv, [[-0.5, -0.5], [0.5, -0.5], [-0.5, 0.5], [0.5, 0.5]])
+  assert ds.test.images.shape == (4, 256, 256, 3)

@@ -1,0 +1,127 @@
+"""LLFF: NDC rays against a hand-computed case, the loader (poses, views,
+bad input) and a smoke run of the forward-facing HALO stages."""
+import os
+
+import imageio.v3 as iio
+import numpy as np
+import pytest
+
+from conftest import SHARED_DATA, tiny_config
+from halo_jax import camera, datasets, stages
+
+FERN = os.path.join(SHARED_DATA, "nerf_llff_data", "fern")
+
+
+def test_ndc_against_hand_computed_ray():
+  # H = W = 2, focal 1 (so -2 f / W = -1), near 1; origin (0.2, 0.1, 0.5),
+  # direction (0.1, 0.2, -1). Moved to z = -1: t = 1.5, o = (0.35, 0.4, -1).
+  o, d = camera.ndc_rays(np.array([0.2, 0.1, 0.5]), np.array([0.1, 0.2, -1.0]), 2, 2, 1.0)
+  np.testing.assert_allclose(o, [0.35, 0.4, -1.0], atol=1e-12)
+  np.testing.assert_allclose(d, [-0.25, -0.2, 2.0], atol=1e-12)
+  # The world point o + 3 d = (0.5, 0.7, -2.5) projects to NDC (0.2, 0.28, 0.2),
+  # which is on the NDC ray at t = 0.6.
+  np.testing.assert_allclose(o + 0.6 * d, [0.2, 0.28, 0.2], atol=1e-12)
+
+
+def write_llff(root, n=6, h=12, w=16, focal_full=40.0, factor=2):
+  """A forward-facing rig: cameras on a small grid, all looking down -z
+  (LLFF's [down, right, back] axes), and images of a colour ramp."""
+  os.makedirs(os.path.join(root, f"images_{factor}"), exist_ok=True)
+  rows = []
+  for i in range(n):
+    # camera-to-world in [down, right, back]: columns down, right, back, centre
+    rot = np.array([[0, 1, 0], [-1, 0, 0], [0, 0, 1.0]])  # down=-y, right=x, back=z
+    centre = np.array([0.1 * (i % 3), 0.1 * (i // 3), 0.0])
+    m = np.concatenate([rot, centre[:, None], [[h * factor], [w * factor], [focal_full]]], 1)
+    rows.append(np.concatenate([m.reshape(-1), [2.0, 10.0]]))
+    y, x = np.mgrid[0:h, 0:w]
+    img = np.stack([x / w, y / h, np.full_like(x, i / n, dtype=float)], -1)
+    iio.imwrite(os.path.join(root, f"images_{factor}", f"image{i:03d}.png"),
+                (img * 255).astype(np.uint8))
+  np.save(os.path.join(root, "poses_bounds.npy"), np.asarray(rows))
+  return root
+
+
+def llff_config(root):
+  c = tiny_config()
+  c.data.update(kind="llff", root=root, factor=2, train_views="000,002,003,005",
+                test_views="004", near=0.0, far=1.0, white_background=False)
+  for name in ("lo", "hi"):
+    c[name].precrop_steps = 0
+  c.hi.empty.weight = 0.0
+  c.ray.update(random_fraction=0.0, bank_rays=0)
+  c.hi.encoding.with_lo = True
+  c.hi.init_from_lo = True
+  return c
+
+
+def test_loader_recentres_and_names_views(tmp_path):
+  root = write_llff(str(tmp_path / "scene"))
+  ds = datasets.load(llff_config(root).data)
+  assert ds.train.names == ("000", "002", "003", "005") and ds.test.names == ("004",)
+  assert ds.train.images.shape == (4, 12, 16, 3)
+  assert ds.train.focal == pytest.approx(20.0)  # 40 px at full size, factor 2
+  # All cameras look down -z after the axis change and recentring.
+  np.testing.assert_allclose(ds.train.c2w[:, :3, 2], np.tile([0, 0, 1.0], (4, 1)), atol=1e-6)
+  o, d = ds.test.rays()
+  np.testing.assert_allclose(o[..., 2], -1.0, atol=1e-5)   # on the NDC near plane
+  np.testing.assert_allclose(d[..., 2], 2.0, atol=1e-5)    # from there to infinity
+
+
+@pytest.mark.parametrize("edit, message", [
+    (lambda r: os.remove(os.path.join(r, "poses_bounds.npy")), "poses_bounds.npy: file not found"),
+    (lambda r: np.save(os.path.join(r, "poses_bounds.npy"), np.zeros((6, 15))),
+     r"shape \(6, 15\), expected \(N, 17\)"),
+    (lambda r: np.save(os.path.join(r, "poses_bounds.npy"),
+                       np.where(np.arange(17) == 3, np.nan, np.load(os.path.join(r, "poses_bounds.npy")))),
+     "row 0 is not finite"),
+    (lambda r: os.remove(os.path.join(r, "images_2", "image005.png")), "5 images but 6 rows"),
+])
+def test_bad_llff_input(tmp_path, edit, message):
+  root = write_llff(str(tmp_path / "scene"))
+  edit(root)
+  with pytest.raises(datasets.DataError, match=message):
+    datasets.load(llff_config(root).data)
+
+
+def test_forward_facing_stages_smoke(tmp_path):
+  root = write_llff(str(tmp_path / "scene"))
+  c = llff_config(root)
+  assert stages.needed(c) == ("lo", "ray", "hi")
+  infos = stages.run(c, str(tmp_path / "run"))
+  assert np.isfinite(infos["hi"]["eval"]["psnr"])
+  assert infos["ray"]["step"] == c.ray.steps
+
+
+@pytest.mark.skipif(not os.path.exists(FERN), reason="shared LLFF data absent")
+def test_fern_split_and_ndc_bounds():
+  from configs import llff
+  c = llff.get_config("fern_4view_cpu")
+  c.data.root = FERN
+  ds = datasets.load(c.data)
+  assert ds.train.images.shape == (4, 378, 504, 3) and ds.test.names == ("014",)
+  o, d = ds.train.rays()
+  assert np.all(np.isfinite(o)) and np.all(np.isfinite(d))
+  np.testing.assert_allclose(o[..., 2], -1.0, atol=1e-4)
+
+
+def test_joint_scheme_smoke(tmp_path):
+  import json
+  root = write_llff(str(tmp_path / "scene"))
+  c = llff_config(root)
+  c.hi.sampler.kind = "joint"
+  c.stages = "lo,hi"
+  c.hi.joint.update(alpha_steps=4, alpha_final=0.3)
+  assert stages.needed(c) == ("lo", "hi")  # the ray field trains inside hi
+  wd = str(tmp_path / "run")
+  infos = stages.run(c, wd)
+  assert np.isfinite(infos["hi"]["eval"]["psnr"])
+  log = [json.loads(l) for l in open(os.path.join(wd, "metrics.jsonl"))]
+  hi = [r for r in log if r.get("stage") == "hi" and "loss" in r]
+  # logged at steps 2, 4, 6 from the step counts 1, 3, 5: 1 - 0.7 * min(s / 4, 1)
+  assert [r["alpha"] for r in hi] == pytest.approx([0.825, 0.475, 0.3])
+  assert all(np.isfinite(r["consist"]) for r in hi)
+  # a relaunch of hi alone loads the joint state's structure
+  c.stages = "hi"
+  c.hi.steps = 6
+  assert stages.run(c, wd)["hi"]["step"] == 6
