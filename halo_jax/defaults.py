@@ -105,8 +105,10 @@ def base_config() -> ml_collections.ConfigDict:
       white_background=True,
       procedural_size=100,     # image size of the generated scene
       # stanford_lf: disparity range (pixels per grid step at the files' size)
-      # that bounds the EPI angle every ray is sampled in
-      disparity_px=(-1.0, 2.0),
+      # that bounds the EPI angle every ray is sampled in, and the signs of u, v
+      # along growing grid column, row (datasets/stanford_lf.py says why -1)
+      disparity_px=(-2.0, 1.0),
+      grid_signs=(-1.0, -1.0),
   ))
   c.lo = _nerf_stage(L=5, scale=32, use_viewdirs=False, steps=8000, num_samples=128,
                      sampler="stratified")

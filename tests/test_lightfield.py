@@ -75,7 +75,7 @@ def lf_config(root):
   from configs import stanford_lf as cfg_lf
   c = cfg_lf.get_config("scene_cpu")
   c.data.update(root=root, train_views="00_00,00_04,04_00,04_04", test_views="02_02,01_03",
-                disparity_px=(-1.0, 1.0))
+                disparity_px=(-1.0, 1.0), grid_signs=(1.0, 1.0))
   c.budget_s = 0.0
   c.eval.update(chunk=256, curve_views=1, lpips=False)
   c.hi.model.update(width=16, depth=2)
@@ -146,5 +146,50 @@ def test_knights_views_and_bounds():
   c.data.root = KNIGHTS
   ds = datasets.load(c.data)
   assert ds.train.names == ("04_04", "04_12", "12_04", "12_12")
-  np.testing.assert_allclose(ds.train.uv, [[-0.5, -0.5], [0.5, -0.5], [-0.5, 0.5], [0.5, 0.5]])
+  # grid_signs (-1, -1): u, v fall as the column and row grow
+  np.testing.assert_allclose(ds.train.uv, [[0.5, 0.5], [-0.5, 0.5], [0.5, -0.5], [-0.5, -0.5]])
   assert ds.test.images.shape == (4, 256, 256, 3)
+
+
+def _box(x, r):
+  """Mean over (2r+1)^2 windows (edges clamped), via cumulative sums."""
+  p = np.pad(x, r, mode="edge")
+  c = np.pad(p.cumsum(0).cumsum(1), ((1, 0), (1, 0)))
+  k = 2 * r + 1
+  return (c[k:, k:] - c[:-k, k:] - c[k:, :-k] + c[:-k, :-k]) / k ** 2
+
+
+@pytest.mark.skipif(not os.path.exists(KNIGHTS), reason="shared Stanford data absent")
+def test_knights_disparity_sign_and_range():
+  # Photo-consistency checks the convention independently of the loader's
+  # maths: for each candidate delta, view (8,10) is shifted by where the
+  # model says a point of that delta lands. The best delta per textured
+  # pixel must fall inside the configured [theta_n, theta_f] for most
+  # pixels, and the knights, which stand in front of the wall, must get a
+  # larger delta (rendering composites from the largest delta, the nearest).
+  from configs import stanford_lf as cfg_lf
+  c = cfg_lf.get_config("knights_cpu")
+  c.data.update(root=KNIGHTS, test_views="08_06,08_10")
+  ds = datasets.load(c.data)
+  a, b = ds.test.images[0].mean(-1), ds.test.images[1].mean(-1)
+  du = float(ds.test.uv[1, 0] - ds.test.uv[0, 0])       # 0.5
+  w = a.shape[1]
+  deltas = np.linspace(-0.3, 0.3, 121)
+  costs = []
+  for delta in deltas:
+    # s_b = s_a - du * delta  ->  shift in pixels = -du * delta * w / 2
+    shift = -du * delta * w / 2
+    x = np.arange(w) + shift
+    x0 = np.clip(np.floor(x).astype(int), 0, w - 2)
+    f = np.clip(x - x0, 0, 1)
+    warped = b[:, x0] * (1 - f) + b[:, x0 + 1] * f      # b sampled where a's points land
+    costs.append(_box(np.abs(a - warped), 5))
+  best_all = deltas[np.argmin(np.stack(costs), 0)]
+  assert np.median(best_all[110:200, 30:110]) > np.median(best_all[10:60, 40:220])  # knights > wall
+  best = best_all[20:-20, 40:-40]
+  gy, gx = np.gradient(a)
+  textured = np.hypot(gx, gy)[20:-20, 40:-40]
+  best = best[textured > np.percentile(textured, 80)]
+  lo_delta, hi_delta = 1 / np.tan(ds.far), 1 / np.tan(ds.near)
+  inside = np.mean((best >= lo_delta - 0.01) & (best <= hi_delta + 0.01))
+  assert inside > 0.9, (inside, np.percentile(best, [5, 50, 95]), lo_delta, hi_delta)

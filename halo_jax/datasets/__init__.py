@@ -25,10 +25,11 @@ def _load_light_field(cfg) -> Dataset:
   """A two-plane light field: near / far are the EPI angle bounds theta_n, theta_f."""
   if not cfg.root:
     raise DataError("data.root is empty: pass --config.data.root=/path/to/stanford_lf/<scene>")
+  signs = tuple(cfg.grid_signs)
   train = stanford_lf.load_views(cfg.root, stanford_lf.names_of(cfg.train_views, cfg.root),
-                                 cfg.factor)
+                                 cfg.factor, signs)
   test = stanford_lf.load_views(cfg.root, stanford_lf.names_of(cfg.test_views, cfg.root),
-                                cfg.factor)
+                                cfg.factor, signs)
   if test.images.shape[1:] != train.images.shape[1:]:
     raise DataError(f"{cfg.root}: test and train views differ in size")
   _, (_, cols) = stanford_lf.scan(cfg.root)

@@ -2,13 +2,21 @@
 
 Files `out_RR_CC_<Y>_<X>.(jpg|png)`: RR, CC the row and column on the camera
 grid (17x17 for the archive). Coordinates (SPEC sec. 4), all in [-1, 1]:
-  u, v: camera-plane position from the grid column and row, (CC - c) / c
-        with c the grid centre (8 for 17x17);
+  u, v: camera-plane position from the grid column and row, sign * (CC - c) / c
+        with c the grid centre (8 for 17x17) and the signs `grid_signs`;
   s, t: image-plane position of the pixel centre, (x + 0.5) / W * 2 - 1.
 A scene point seen at s in view u is seen at s - (u - u') delta in view u',
 with delta = cot(theta) its EPI slope (normalised disparity); the data
 config's disparity range, in pixels per grid step at the files' resolution,
 sets the bounds [theta_n, theta_f] every ray is sampled in.
+
+Order matters: rays are composited from theta_n (largest delta) to theta_f,
+so the largest delta must be the nearest point. That holds when u and v grow
+in the direction the camera moves in image x and y; in the Stanford archive
+the camera moves the other way as the column and row grow (the file names'
+X and Y fall), hence grid_signs = (-1, -1) by default.
+`tests/test_lightfield.py` checks it on knights by photo-consistency: the
+knights, which stand in front of the wall, must get the larger delta.
 """
 import dataclasses
 import os
@@ -78,8 +86,9 @@ def scan(root: str):
   return {f"{r:02d}_{c:02d}": p for (r, c), p in found.items()}, (rows, cols)
 
 
-def load_views(root: str, names, factor: int = 1) -> LightFieldViews:
-  """Loads the named grid views ('RR_CC'), downscaled by `factor`."""
+def load_views(root: str, names, factor: int = 1, grid_signs=(-1.0, -1.0)) -> LightFieldViews:
+  """Loads the named grid views ('RR_CC'), downscaled by `factor`; u, v are
+  the column and row offsets from the grid centre times `grid_signs`."""
   files, (rows, cols) = scan(root)
   missing = [n for n in names if n not in files]
   if missing:
@@ -91,7 +100,8 @@ def load_views(root: str, names, factor: int = 1) -> LightFieldViews:
       raise DataError(f"{files[n]}: size {img.shape[1]}x{img.shape[0]} (after factor {factor}) "
                       f"differs from {images[0].shape[1]}x{images[0].shape[0]} of the other views")
     r, c = (int(x) for x in n.split("_"))
-    uv.append([(c - (cols - 1) / 2) / ((cols - 1) / 2), (r - (rows - 1) / 2) / ((rows - 1) / 2)])
+    uv.append([grid_signs[0] * (c - (cols - 1) / 2) / ((cols - 1) / 2),
+               grid_signs[1] * (r - (rows - 1) / 2) / ((rows - 1) / 2)])
     images.append(img)
   return LightFieldViews(np.stack(images), np.asarray(uv, np.float32), tuple(names))
 

@@ -44,6 +44,12 @@ def main(argv):
   if name is None or not _finished(wd, name):
     raise SystemExit(f"{wd}: no finished stage {FLAGS.stage or 'hi or lo'} to render")
   config = checkpoint.read_config(os.path.join(wd, name, "final", "config.json"))
+  if config.data.kind not in ("blender", "procedural") or config[name].sampler.kind == "joint":
+    # An orbit is a 360-degree path of a static scene with a separate ray stage.
+    raise SystemExit(f"{wd}: orbits are rendered for static 360-degree scenes (data.kind "
+                     f"blender or procedural, no joint sampler); this run is "
+                     f"{config.data.kind!r} with sampler {config[name].sampler.kind!r}. "
+                     f"Its held-out renders are in {os.path.join(wd, name, 'eval')}.")
   dataset = datasets.load(config.data, wd)
   cfg = config[name]
   model = models.nerf_from_config(config, name)
