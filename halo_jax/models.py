@@ -8,6 +8,15 @@ import jax.numpy as jnp
 from halo_jax import encoding
 
 
+def _density(h, noise_key, noise, bias):
+  """The density head of a radiance field (call inside a compact module):
+  softplus(Dense(h) + noise + bias), [...]. Noise only when a key is given."""
+  raw = nn.Dense(1, name="density")(h)[..., 0]
+  if noise_key is not None and noise > 0:
+    raw = raw + noise * jax.random.normal(noise_key, raw.shape)
+  return nn.softplus(raw + bias)
+
+
 class MLP(nn.Module):
   """ReLU MLP with the input concatenated back in after the `skips` layers."""
   width: int = 256
@@ -60,10 +69,7 @@ class NeRFMLP(nn.Module):
       x = jnp.concatenate(
           [encoding.positional_encoding(points, self.base_freqs, self.base_scale), x], -1)
     h = MLP(self.width, self.depth, tuple(self.skips), name="trunk")(x)
-    raw_sigma = nn.Dense(1, name="density")(h)[..., 0]
-    if density_noise_key is not None and density_noise > 0:
-      raw_sigma = raw_sigma + density_noise * jax.random.normal(density_noise_key, raw_sigma.shape)
-    sigma = nn.softplus(raw_sigma + self.density_bias)
+    sigma = _density(h, density_noise_key, density_noise, self.density_bias)
     if self.use_viewdirs:
       feat = nn.Dense(self.width, name="bottleneck")(h)
       d = encoding.positional_encoding(viewdirs, self.dir_freqs, 1.0)
@@ -190,10 +196,7 @@ class EPINeRF(nn.Module):
             points[..., 2:], encoding.fourier_matrix(self.seed + 1, 1, self.theta_features,
                                                      self.theta_std))], -1)
     h = MLP(self.width, self.depth, tuple(self.skips), name="trunk")(x)
-    raw_sigma = nn.Dense(1, name="density")(h)[..., 0]
-    if density_noise_key is not None and density_noise > 0:
-      raw_sigma = raw_sigma + density_noise * jax.random.normal(density_noise_key, raw_sigma.shape)
-    sigma = nn.softplus(raw_sigma + self.density_bias)
+    sigma = _density(h, density_noise_key, density_noise, self.density_bias)
     v = encoding.gaussian_fourier_features(
         viewdirs, encoding.fourier_matrix(self.seed + 2, 2, self.uv_features, self.uv_std))
     feat = nn.Dense(self.width, name="bottleneck")(h)
