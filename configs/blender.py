@@ -32,11 +32,8 @@ CPU_BUDGET_S = 600.0
 
 
 def get_config(arg: str = "lego_8view"):
-  parts = arg.split("_")
-  nerf = parts[-1] == "nerf"
-  parts = parts[:-1] if nerf else parts
-  cpu = parts[-1] == "cpu"
-  parts = parts[:-1] if cpu else parts
+  parts, flags = defaults.split_variant(arg)
+  cpu, nerf = "cpu" in flags, "nerf" in flags
   scene, setting = parts[0], "_".join(parts[1:])
   c = defaults.base_config()
   c.data.kind = "blender"

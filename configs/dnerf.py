@@ -41,11 +41,8 @@ def _dynamic(c):
 
 
 def get_config(arg: str = "lego"):
-  parts = arg.split("_")
-  nerf = parts[-1] == "nerf"
-  parts = parts[:-1] if nerf else parts
-  cpu = parts[-1] == "cpu"
-  parts = parts[:-1] if cpu else parts
+  parts, flags = defaults.split_variant(arg)
+  cpu, nerf = "cpu" in flags, "nerf" in flags
   if parts != ["lego"]:
     raise ValueError(f"unknown variant {arg!r}: use lego or lego_cpu, optionally with _nerf")
   c = defaults.base_config()

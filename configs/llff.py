@@ -35,11 +35,7 @@ CPU_BUDGET_S = 600.0
 
 
 def get_config(arg: str = "fern_4view"):
-  parts = arg.split("_")
-  flags = {p for p in parts[2:]}
-  parts = parts[:2]
-  if not flags <= {"cpu", "nerf", "joint"}:
-    raise ValueError(f"unknown variant {arg!r}: suffixes are _cpu, _joint, _nerf")
+  parts, flags = defaults.split_variant(arg, ("cpu", "nerf", "joint"))
   cpu, nerf = "cpu" in flags, "nerf" in flags
   if len(parts) != 2 or parts[1] != "4view" or parts[0] not in FOUR_VIEWS:
     raise ValueError(f"unknown variant {arg!r}: use <scene>_4view[_cpu][_nerf] with scene "

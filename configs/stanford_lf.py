@@ -25,11 +25,8 @@ CPU_BUDGET_S = 600.0
 
 
 def get_config(arg: str = "knights"):
-  parts = arg.split("_")
-  nerf = parts[-1] == "nerf"
-  parts = parts[:-1] if nerf else parts
-  cpu = parts[-1] == "cpu"
-  parts = parts[:-1] if cpu else parts
+  parts, flags = defaults.split_variant(arg)
+  cpu, nerf = "cpu" in flags, "nerf" in flags
   if len(parts) != 1:
     raise ValueError(f"unknown variant {arg!r}: use <scene>[_cpu][_nerf]")
   c = defaults.base_config()

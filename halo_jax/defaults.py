@@ -83,6 +83,15 @@ def _nerf_stage(L, scale, use_viewdirs, steps, num_samples, sampler):
   return cfg
 
 
+def split_variant(arg: str, suffixes=("cpu", "nerf")):
+  """'lego_8view_cpu_nerf' -> (['lego', '8view'], {'cpu', 'nerf'}): the config
+  variant's parts and the trailing suffixes it carries."""
+  parts, flags = arg.split("_"), set()
+  while parts and parts[-1] in suffixes:
+    flags.add(parts.pop())
+  return parts, flags
+
+
 def base_config() -> ml_collections.ConfigDict:
   """All fields, set to the paper's full-resolution Blender protocol."""
   c = ml_collections.ConfigDict()
