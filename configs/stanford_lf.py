@@ -43,7 +43,8 @@ def get_config(arg: str = "knights"):
   hi.joint.alpha_steps = 20000   # the paper: alpha reaches 0.5 after 20k iterations
   if cpu:
     c.budget_s = CPU_BUDGET_S
-    c.eval.chunk = 8192
+    c.eval.update(chunk=8192, block_rays=256)  # cache-sized work: see defaults.cpu_sized
+    hi.microbatches = 8
     hi.model.update(width=128, depth=4, skips=())
     hi.sampler.num_samples = 32
     hi.update(batch_rays=1024, steps=6000, lr_init=2e-3, lr_final=2e-4, checkpoint_every=500,

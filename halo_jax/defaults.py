@@ -27,6 +27,10 @@ def _train(steps, batch_rays, lr_init, lr_final):
   return dict(
       steps=steps,
       batch_rays=batch_rays,
+      # Run each step's batch in this many equal parts, summing their gradients:
+      # the same step (per-ray PRNG keys), but each part's activations stay in
+      # cache (2.4x the matmul rate of a 128-wide MLP on CPU). 1: whole batch.
+      microbatches=1,
       lr_init=lr_init,
       lr_final=lr_final,
       max_seconds=0.0,        # stop a stage after this much training time (0: no cap)
@@ -158,6 +162,10 @@ def base_config() -> ml_collections.ConfigDict:
   c.baseline = ml_collections.ConfigDict(dict(num_samples=64))
   c.eval = ml_collections.ConfigDict(dict(
       chunk=4096,          # rays per jitted rendering call
+      # Render each chunk in blocks of this many rays, one after another (0: the
+      # whole chunk at once, for GPUs). On CPU blocks that fit in cache are
+      # several times faster (stages.field.in_blocks).
+      block_rays=0,
       curve_views=5,       # held-out views used for the PSNR curve (final eval uses all)
       save_images=True,
       lpips=True,          # LPIPS-VGG in the final evaluation (needs H, W >= 32)
@@ -191,6 +199,11 @@ def cpu_sized(c: ml_collections.ConfigDict, budget_s: float) -> ml_collections.C
   c.budget_s = budget_s
   c.budget_shares.update(lo=0.30, ray=0.07, hi=0.63)
   c.eval.chunk = 8192
+  # Cache-sized work on CPU (experiments/throughput.py): training steps in
+  # parts of 128 rays x 32 samples, renders in blocks of 256 rays.
+  c.eval.block_rays = 256
+  c.lo.microbatches = 8
+  c.hi.microbatches = 8
   c.lo.encoding.scale = 1.0
   c.lo.sampler.num_samples = 32
   c.lo.update(batch_rays=1024, steps=1500, lr_init=2e-3, lr_final=2e-4, precrop_steps=200,
@@ -216,7 +229,12 @@ def as_nerf_baseline(c: ml_collections.ConfigDict, num_samples: int = 0) -> ml_c
   (num_samples, or c.baseline.num_samples when 0), no regulariser."""
   c.stages = "hi"
   c.hi.sampler.kind = "stratified"
+  hi_samples = c.hi.sampler.num_samples
   c.hi.sampler.num_samples = num_samples or c.baseline.num_samples
+  # Keep the samples in each micro-batch (its cache footprint) as Hi-NeRF's.
+  parts = c.hi.microbatches * c.hi.sampler.num_samples // hi_samples
+  if parts > 1 and c.hi.batch_rays % parts == 0:
+    c.hi.microbatches = parts
   c.hi.empty.weight = 0.0
   c.hi.init_from_lo = False
   c.hi.encoding.with_lo = False

@@ -7,6 +7,8 @@ intervals.
 import jax
 import jax.numpy as jnp
 
+from halo_jax import rng
+
 
 def stratified(key, near, far, num_samples: int, randomized: bool = True):
   """N intervals of equal length in [near, far], jittered as one when training.
@@ -15,7 +17,8 @@ def stratified(key, near, far, num_samples: int, randomized: bool = True):
   stratified sampling); the first and last edge stay at near and far.
 
   Args:
-    key: PRNG key (unused when randomized is False).
+    key: PRNG key, or per-ray keys [R, 2] (see halo_jax.rng); unused when
+      randomized is False.
     near, far: [...] bounds per ray (or scalars broadcast to the batch).
     num_samples: N.
     randomized: jitter the interior edges.
@@ -29,7 +32,7 @@ def stratified(key, near, far, num_samples: int, randomized: bool = True):
   u = jnp.linspace(0.0, 1.0, num_samples + 1)
   u = jnp.broadcast_to(u, shape + (num_samples + 1,))
   if randomized:
-    jitter = jax.random.uniform(key, shape + (num_samples - 1,), minval=-0.5, maxval=0.5)
+    jitter = rng.uniform(key, shape + (num_samples - 1,), minval=-0.5, maxval=0.5)
     interior = u[..., 1:-1] + jitter / num_samples
     u = jnp.concatenate([u[..., :1], interior, u[..., -1:]], axis=-1)
   return near[..., None] + (far - near)[..., None] * u
@@ -92,7 +95,7 @@ def hierarchical(key, t_edges, weights, num_samples: int, randomized: bool = Tru
   cdf = cdf.at[..., -1].set(1.0)
   shape = weights.shape[:-1] + (num_samples + 1,)
   if randomized:
-    u = jnp.sort(jax.random.uniform(key, shape), axis=-1)
+    u = jnp.sort(rng.uniform(key, shape), axis=-1)
   else:
     u = jnp.broadcast_to(jnp.linspace(0.0, 1.0, num_samples + 1), shape)
   interp = jnp.vectorize(jnp.interp, signature="(n),(m),(m)->(n)")

@@ -65,7 +65,8 @@ def lo_criterion(lo_state, dataset, tune_cfg, chunk) -> dict:
   """The criterion of a finished Lo-NeRF: {'criterion', 'per_pair'}."""
   model = models.nerf_from_config(lo_state.config, "lo")
   render = field.make_eval_fn(model, lo_state.config.lo.sampler, near=dataset.near,
-                              far=dataset.far, white_background=dataset.white_background)
+                              far=dataset.far, white_background=dataset.white_background,
+                              block_rays=lo_state.config.eval.block_rays)
   eval_fn = lambda o, d: render(lo_state.params, None, o, d)
   pairs = nearby_pairs(dataset.train.c2w, tune_cfg.num_pairs, tune_cfg.angle_deg,
                        tune_cfg.seed)

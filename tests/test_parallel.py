@@ -1,4 +1,5 @@
-"""Data parallelism on 2 CPU devices: same loss trajectory as one device."""
+"""Data parallelism on 2 CPU devices: same loss trajectory as one device
+(also with each device running its share in micro-batches)."""
 import json
 import os
 import subprocess
@@ -22,19 +23,19 @@ mesh = parallel.make_mesh(c.parallel)
 x = jax.jit(lambda v: parallel.shard_batch(v * 2.0, mesh))(jnp.arange(8.0))
 shards = sorted(tuple(s.data.tolist()) for s in x.addressable_shards)
 out = {{"shards": shards, "losses": {{}}}}
-for dp in (False, True):
+for dp, parts in ((False, 1), (True, 1), (True, 2)):
   c = tiny_config()
   c.data.root = {root!r}
   c.hi.encoding.with_lo = True
   c.hi.init_from_lo = True
   c.parallel.data_parallel = dp
   for name in ("lo", "ray", "hi"):
-    c[name].update(steps=8, log_every=1)
-  wd = {wd!r} + "/dp" + str(int(dp))
+    c[name].update(steps=8, log_every=1, microbatches=parts)
+  wd = {wd!r} + "/dp" + str(int(dp)) + "_" + str(parts)
   stages.run(c, wd)
   recs = [json.loads(l) for l in open(wd + "/metrics.jsonl")]
-  out["losses"][str(dp)] = [[r["stage"], r["step"], r["loss"]] for r in recs
-                             if "loss" in r and not r.get("heldout")]
+  out["losses"][f"{{dp}}_{{parts}}"] = [[r["stage"], r["step"], r["loss"]] for r in recs
+                                      if "loss" in r and not r.get("heldout")]
 print("RESULT" + json.dumps(out))
 """
 
@@ -49,6 +50,9 @@ def test_two_devices_follow_the_single_device_trajectory(scene_root, tmp_path):
   out = json.loads(res.stdout.split("RESULT")[-1])
   # The batch really is split: each device holds half of it.
   assert out["shards"] == [[0.0, 2.0, 4.0, 6.0], [8.0, 10.0, 12.0, 14.0]]
-  one, two = out["losses"]["False"], out["losses"]["True"]
-  assert [r[:2] for r in one] == [r[:2] for r in two] and len(one) == 24
-  np.testing.assert_allclose([r[2] for r in two], [r[2] for r in one], rtol=1e-4)
+  one = out["losses"]["False_1"]
+  assert len(one) == 24
+  # Two devices, and two devices each running the batch in two parts.
+  for two in (out["losses"]["True_1"], out["losses"]["True_2"]):
+    assert [r[:2] for r in one] == [r[:2] for r in two]
+    np.testing.assert_allclose([r[2] for r in two], [r[2] for r in one], rtol=1e-4)

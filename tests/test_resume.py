@@ -21,7 +21,7 @@ REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 def _loop_cfg(steps):
   return ml_collections.ConfigDict(dict(
-      steps=steps, lr_init=0.1, lr_final=0.1, max_seconds=0.0, log_every=1,
+      steps=steps, microbatches=1, lr_init=0.1, lr_final=0.1, max_seconds=0.0, log_every=1,
       checkpoint_every=100, eval_every=0, eval_every_s=0.0))
 
 

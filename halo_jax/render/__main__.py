@@ -61,7 +61,8 @@ def main(argv):
     radius = config.ray.radius or dataset.radius
   fn = field.make_eval_fn(model, cfg.sampler, near=dataset.near, far=dataset.far,
                           white_background=dataset.white_background,
-                          guide_model=guide_model, radius=radius)
+                          guide_model=guide_model, radius=radius,
+                          block_rays=config.eval.block_rays)
   cam_radius, elevation = orbit_for(dataset.test)
   h, w, f = dataset.test.height, dataset.test.width, dataset.test.focal
   frames = []

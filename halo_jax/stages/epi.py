@@ -14,8 +14,9 @@ import os
 
 import jax
 import jax.numpy as jnp
-from halo_jax import evaluate, lightfield, losses, metrics, models, parallel, render, samplers
-from halo_jax.stages import loop
+from halo_jax import (evaluate, lightfield, losses, metrics, models, parallel, render, rng,
+                      samplers)
+from halo_jax.stages import field, loop
 from halo_jax.stages.state import StageState, stage_dir
 
 
@@ -51,7 +52,7 @@ def render_rays(model, ray_model, cfg, params, uv, st, key, alpha, *, theta_n, t
     render dict (rgb, depth = expected tau, acc, weights, ...) plus tau_ray
     [R] for the joint sampler.
   """
-  k_s, k_n = jax.random.split(key)
+  k_s, k_n = rng.split(key, 2)
   n = cfg.sampler.num_samples
   zeros = jnp.zeros(uv.shape[:-1], jnp.float32)
   tau_ray = None
@@ -78,12 +79,16 @@ def _alpha(cfg, step):
   return lightfield.alpha_schedule(step, cfg.joint.alpha_steps, cfg.joint.alpha_final)
 
 
-def _loss_fn(params, data, key, step, *, model, ray_model, cfg, theta_n, theta_f, mesh=None):
-  """L_rec (+ consist_weight * L_consist for the joint sampler)."""
+def _loss_fn(params, data, key, step, part=None, *, model, ray_model, cfg, theta_n, theta_f,
+             mesh=None):
+  """L_rec (+ consist_weight * L_consist for the joint sampler) on the batch,
+  or on its `part` (loop.part_of)."""
   k_idx, k_ren = jax.random.split(key)
-  idx = parallel.shard_batch(
-      jax.random.randint(k_idx, (cfg.batch_rays,), 0, data["rgb"].shape[0]), mesh)
-  out = render_rays(model, ray_model, cfg, params, data["uv"][idx], data["st"][idx], k_ren,
+  idx = jax.random.randint(k_idx, (cfg.batch_rays,), 0, data["rgb"].shape[0])
+  keys = jax.random.split(k_ren, cfg.batch_rays)  # per ray: parts draw as the whole
+  idx, keys = loop.part_of(idx, part), loop.part_of(keys, part)
+  idx = parallel.shard_batch(idx, mesh)
+  out = render_rays(model, ray_model, cfg, params, data["uv"][idx], data["st"][idx], keys,
                     _alpha(cfg, step), theta_n=theta_n, theta_f=theta_f, randomized=True,
                     noise=cfg.density_noise)
   rec = losses.reconstruction(out["rgb"], data["rgb"][idx])
@@ -104,16 +109,19 @@ def training_rays(views):
           "rgb": views.images.reshape(-1, 3)}
 
 
-def make_eval_fn(model, ray_model, cfg, theta_n, theta_f):
+def make_eval_fn(model, ray_model, cfg, theta_n, theta_f, block_rays=0):
   """Jitted (params, alpha, origins, dirs) -> {rgb, depth (expected tau), acc};
-  origins (u, v, 0) and dirs (s, t, 1) as LightFieldViews.rays() gives them."""
+  origins (u, v, 0) and dirs (s, t, 1) as LightFieldViews.rays() gives them.
+  block_rays: see field.in_blocks."""
   @jax.jit
   def fn(params, alpha, o, d):
-    out = render_rays(model, ray_model, cfg, params, o[..., :2], d[..., :2],
-                      jax.random.PRNGKey(0), alpha, theta_n=theta_n, theta_f=theta_f,
-                      randomized=False)
-    return {"rgb": out["rgb"], "depth": render.normalized_depth(out["depth"], out["acc"]),
-            "acc": out["acc"]}
+    def render_block(o, d):
+      out = render_rays(model, ray_model, cfg, params, o[..., :2], d[..., :2],
+                        jax.random.PRNGKey(0), alpha, theta_n=theta_n, theta_f=theta_f,
+                        randomized=False)
+      return {"rgb": out["rgb"], "depth": render.normalized_depth(out["depth"], out["acc"]),
+              "acc": out["acc"]}
+    return field.in_blocks(render_block, block_rays, o, d)
   return fn
 
 
@@ -121,12 +129,13 @@ def train(config, dataset, workdir, name="hi", log=None, wall_offset=0.0, mesh=N
   """Trains the light-field stage `name`; returns (StageState, info)."""
   cfg = config[name]
   parallel.check_batch(mesh, cfg.batch_rays, f"{name}.batch_rays")
+  loop.check_parts(cfg, cfg.batch_rays, f"{name}.batch_rays", mesh)
   model, ray_model = models_from_config(config, name)
   theta_n, theta_f = dataset.near, dataset.far
   data = jax.device_put(training_rays(dataset.train))
   loss_fn = functools.partial(_loss_fn, model=model, ray_model=ray_model, cfg=cfg,
                               theta_n=theta_n, theta_f=theta_f, mesh=mesh)
-  render_eval = make_eval_fn(model, ray_model, cfg, theta_n, theta_f)
+  render_eval = make_eval_fn(model, ray_model, cfg, theta_n, theta_f, config.eval.block_rays)
 
   def eval_fn(params, step):
     # the joint sampler renders with the window it trains with at this step

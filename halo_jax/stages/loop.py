@@ -74,17 +74,60 @@ def _all_finite(tree):
   return jnp.all(jnp.stack([jnp.all(jnp.isfinite(x)) for x in leaves]))
 
 
-def make_step(loss_fn: Callable, tx: optax.GradientTransformation):
+def part_of(x, part):
+  """Part i of `num` equal parts of x [B, ...] along its first axis (x itself
+  when part is None). part = (i, num), i may be traced; num divides B."""
+  if part is None:
+    return x
+  i, num = part
+  size = x.shape[0] // num
+  return jax.lax.dynamic_slice_in_dim(x, i * size, size)
+
+
+def check_parts(cfg, batch: int, what: str, mesh=None) -> None:
+  """Raises unless cfg.microbatches splits `batch` (and each part splits over
+  the data-parallel mesh)."""
+  parts = cfg.microbatches
+  if parts < 1 or batch % parts:
+    raise ValueError(f"microbatches={parts} does not divide {what}={batch}")
+  if mesh is not None and (batch // parts) % mesh.size:
+    raise ValueError(f"{what}={batch} in microbatches={parts} parts of {batch // parts} "
+                     f"rays does not split over the {mesh.size} devices of the mesh")
+
+
+def loss_and_grads(loss_fn: Callable, params, data, key, step, parts: int = 1):
+  """((loss, aux), grads) of `loss_fn` on a step's batch, run in `parts` parts.
+
+  Every loss here is a mean over rays of equal-size parts, so the mean of the
+  parts' losses and gradients is the whole batch's; each part runs its forward
+  and backward pass before the next starts, which keeps its activations in
+  cache. aux entries are means over the parts.
+  """
+  value_and_grad = jax.value_and_grad(loss_fn, has_aux=True)
+  if parts == 1:
+    return value_and_grad(params, data, key, step)
+
+  def add_part(total, i):
+    out = value_and_grad(params, data, key, step, part=(i, parts))
+    return jax.tree_util.tree_map(jnp.add, total, out), None
+
+  shapes = jax.eval_shape(lambda: value_and_grad(params, data, key, step, part=(0, parts)))
+  zeros = jax.tree_util.tree_map(lambda s: jnp.zeros(s.shape, s.dtype), shapes)
+  total, _ = jax.lax.scan(add_part, zeros, jnp.arange(parts))
+  return jax.tree_util.tree_map(lambda x: x / parts, total)
+
+
+def make_step(loss_fn: Callable, tx: optax.GradientTransformation, parts: int = 1):
   """One jitted training step with a guard against non-finite losses or gradients.
 
   A step whose loss or gradients are not finite leaves params and optimiser
   state untouched (and is counted); the step counter still advances so the
-  next step draws fresh randomness.
+  next step draws fresh randomness. `parts`: see loss_and_grads.
   """
   def step(train, data, base_key):
     key = jax.random.fold_in(base_key, train["step"])
-    (loss, aux), grads = jax.value_and_grad(loss_fn, has_aux=True)(
-        train["params"], data, key, train["step"])
+    (loss, aux), grads = loss_and_grads(loss_fn, train["params"], data, key, train["step"],
+                                        parts)
     ok = jnp.isfinite(loss) & _all_finite(grads)
     updates, opt_state = tx.update(grads, train["opt_state"], train["params"])
     params = optax.apply_updates(train["params"], updates)
@@ -107,7 +150,9 @@ def train(name: str, cfg, workdir: str, params, loss_fn: Callable, data, seed: i
     cfg: the stage config (steps, lr_*, max_seconds, *_every).
     workdir: run folder; checkpoints go to <workdir>/<name>/checkpoints.
     params: initial parameters (ignored if a checkpoint exists: training resumes).
-    loss_fn: (params, data, key, step) -> (loss, aux dict of scalars).
+    loss_fn: (params, data, key, step, part=None) -> (loss, aux dict of scalars);
+      with cfg.microbatches > 1 it is called on part=(i, microbatches) of its
+      batch (part_of).
     data: pytree of device arrays the loss reads (rays, targets, ...).
     seed: base PRNG seed.
     eval_fn: (params, step) -> dict of held-out metrics (e.g. {'psnr': ...});
@@ -123,7 +168,7 @@ def train(name: str, cfg, workdir: str, params, loss_fn: Callable, data, seed: i
   """
   log = log or MetricsLog(workdir)
   tx = optimizer(cfg)
-  step_fn = make_step(loss_fn, tx)
+  step_fn = make_step(loss_fn, tx, cfg.microbatches)
   train_state = dict(params=params, opt_state=tx.init(params), step=jnp.int32(0),
                      skipped=jnp.int32(0))
   mngr = checkpoint.manager(os.path.join(workdir, name, "checkpoints"))

@@ -51,7 +51,8 @@ def training_rays(views, precrop_frac):
 
 
 def random_ray_bank(lo_state: StageState, num_rays, radius, focal_over_width, near, far,
-                    white_background, num_samples, seed, target="max_weight", chunk=8192):
+                    white_background, num_samples, seed, target="max_weight", chunk=8192,
+                    block_rays=0):
   """Random hemisphere rays rendered once by the frozen Lo-NeRF.
 
   The Lo field is frozen, so its depth and opacity on a fixed bank of random
@@ -72,7 +73,7 @@ def random_ray_bank(lo_state: StageState, num_rays, radius, focal_over_width, ne
     times = np.asarray(jax.random.uniform(k_time, (num_rays, 1)))
   fn = lambda oo, dd, tt=None: dict(zip(("depth", "acc"), field.lo_targets(
       lo_model, lo_state.params, oo, dd, num_samples=num_samples, near=near, far=far,
-      white_background=white_background, target=target, times=tt)))
+      white_background=white_background, target=target, times=tt, block_rays=block_rays)))
   out = field.render_chunked(jax.jit(fn), np.asarray(o), np.asarray(d), chunk, times)
   bank = {"origins": np.asarray(o), "dirs": np.asarray(d), **out}
   if times is not None:
@@ -114,11 +115,12 @@ def joint_window(cfg, step):
   return lightfield.alpha_schedule(step, cfg.joint.alpha_steps, cfg.joint.alpha_final)
 
 
-def _loss_fn(params, data, key, step, *, model, cfg, near, far, white, guide_model, radius,
-             mesh=None):
+def _loss_fn(params, data, key, step, part=None, *, model, cfg, near, far, white,
+             guide_model, radius, mesh=None):
   """L_rec (+ coarse L_rec) + lambda L_empty (+ L_consist for the joint
   sampler) for one batch drawn on device (split over `mesh`'s devices when
-  data-parallel)."""
+  data-parallel), or for its `part` (loop.part_of: the training rays and the
+  L_empty rays are cut alike, and every ray keeps its own PRNG key)."""
   joint = cfg.sampler.kind == "joint"
   if joint:
     params, ray_params = params["nerf"], params["ray"]
@@ -129,7 +131,8 @@ def _loss_fn(params, data, key, step, *, model, cfg, near, far, white, guide_mod
     crop = data["crop_idx"]
     idx_crop = crop[jax.random.randint(k_crop, (cfg.batch_rays,), 0, crop.shape[0])]
     idx = jnp.where(step < cfg.precrop_steps, idx_crop, idx)
-  idx = parallel.shard_batch(idx, mesh)
+  keys = loop.part_of(jax.random.split(k_ren, cfg.batch_rays), part)
+  idx = parallel.shard_batch(loop.part_of(idx, part), mesh)
   o, d, target = data["origins"][idx], data["dirs"][idx], data["rgb"][idx]
   times = data["times"][idx] if "times" in data else None
   guide, window = None, None
@@ -138,7 +141,7 @@ def _loss_fn(params, data, key, step, *, model, cfg, near, far, white, guide_mod
   elif joint:
     guide = field.Guide(guide_model, ray_params, radius)
     window = joint_window(cfg, step)
-  outs = field.render_rays(model, cfg.sampler, params, o, d, k_ren, near=near, far=far,
+  outs = field.render_rays(model, cfg.sampler, params, o, d, keys, near=near, far=far,
                            white_background=white, randomized=True,
                            noise=cfg.density_noise, guide=guide, times=times, window=window)
   rec = losses.reconstruction(outs[-1]["rgb"], target)
@@ -156,10 +159,11 @@ def _loss_fn(params, data, key, step, *, model, cfg, near, far, white, guide_mod
   if cfg.empty.weight > 0:
     bank = data["empty"]
     j = bank["idx"][jax.random.randint(k_emp, (cfg.empty.num_rays,), 0, bank["idx"].shape[0])]
-    j = parallel.shard_batch(j, mesh)
+    keys_emp = loop.part_of(jax.random.split(k_emp_s, cfg.empty.num_rays), part)
+    j = parallel.shard_batch(loop.part_of(j, part), mesh)
     eo, ed = bank["origins"][j], bank["dirs"][j]
     et = bank["times"][j] if "times" in bank else None
-    t = samplers.stratified(k_emp_s, jnp.full(j.shape, near), far, cfg.empty.num_samples)
+    t = samplers.stratified(keys_emp, jnp.full(j.shape, near), far, cfg.empty.num_samples)
     acc = field.composite(model, params, eo, ed, t, white, times=et)["acc"]
     l_empty = losses.empty_space(acc, bank["acc"][j], cfg.empty.tau)
     weight = jnp.where(step >= cfg.empty.start_step, cfg.empty.weight, 0.0)
@@ -183,8 +187,10 @@ def train(config, dataset, workdir, name, lo_state=None, ray_state=None, log=Non
   """
   cfg = config[name]
   parallel.check_batch(mesh, cfg.batch_rays, f"{name}.batch_rays")
+  loop.check_parts(cfg, cfg.batch_rays, f"{name}.batch_rays", mesh)
   if cfg.empty.weight > 0:
     parallel.check_batch(mesh, cfg.empty.num_rays, f"{name}.empty.num_rays")
+    loop.check_parts(cfg, cfg.empty.num_rays, f"{name}.empty.num_rays", mesh)
   near, far, white = dataset.near, dataset.far, dataset.white_background
   dynamic = models.is_dynamic(config, name)
   if dynamic != (dataset.train.times is not None):
@@ -227,7 +233,8 @@ def train(config, dataset, workdir, name, lo_state=None, ray_state=None, log=Non
     lo_model = models.nerf_from_config(lo_state.config, "lo")
     fn = lambda oo, dd: dict(zip(("depth", "acc"), field.lo_targets(
         lo_model, lo_state.params, oo, dd, num_samples=lo_state.config.lo.sampler.num_samples,
-        near=near, far=far, white_background=white, target=config.ray.depth_target)))
+        near=near, far=far, white_background=white, target=config.ray.depth_target,
+        block_rays=config.eval.block_rays)))
     targets = field.render_chunked(jax.jit(fn), data["origins"], data["dirs"],
                                    config.eval.chunk)
     data.update(lo_depth=targets["depth"], lo_acc=targets["acc"])
@@ -236,7 +243,8 @@ def train(config, dataset, workdir, name, lo_state=None, ray_state=None, log=Non
       raise ValueError(f"{name}.empty.weight > 0 needs a finished 'lo' stage")
     bank = random_ray_bank(lo_state, cfg.empty.bank_rays, dataset.radius,
                            dataset.train.focal / dataset.train.width, near, far, white,
-                           cfg.empty.num_samples, config.seed + 1, chunk=config.eval.chunk)
+                           cfg.empty.num_samples, config.seed + 1, chunk=config.eval.chunk,
+                           block_rays=config.eval.block_rays)
     empty_idx = np.flatnonzero(bank["acc"] < cfg.empty.tau).astype(np.int32)
     if empty_idx.size == 0:  # nothing is empty: the mask in L_empty makes it 0
       empty_idx = np.arange(bank["acc"].shape[0], dtype=np.int32)
@@ -252,7 +260,7 @@ def train(config, dataset, workdir, name, lo_state=None, ray_state=None, log=Non
 
   render_eval = field.make_eval_fn(model, cfg.sampler, near=near, far=far,
                                    white_background=white, guide_model=guide_model,
-                                   radius=radius)
+                                   radius=radius, block_rays=config.eval.block_rays)
   guide_params = ray_state.params if cfg.sampler.kind == "depth_guided" else None
 
   def make_eval(p, step=None):
