@@ -79,6 +79,22 @@ def test_budget_splits_by_share(config):
   assert stages.with_budget(config).lo.max_seconds == 25.0  # hi still needs lo's share
 
 
+def test_stages_that_stop_early_leave_their_time_to_the_next(config, scene_root, tmp_path):
+  # Lo and the ray field stop at 2 steps, far inside their shares (4 and 1.6
+  # of 16 s); Hi, capped only by time, gets what they leave, so the method
+  # trains for the whole budget.
+  config.data.root = scene_root
+  config.eval.lpips = False
+  config.budget_s = 16.0
+  for name, steps in (("lo", 2), ("ray", 2), ("hi", 10 ** 6)):
+    config[name].update(steps=steps, checkpoint_every=10 ** 6, log_every=10 ** 6,
+                        eval_every=0)
+  infos = stages.run(config, str(tmp_path / "run"))
+  assert infos["lo"]["wall_s"] < 3.0 and infos["lo"]["step"] == 2
+  assert infos["hi"]["wall_s"] > 10.4 + 0.8  # more than its own share (65%)
+  assert 15.5 < infos["hi"]["cumulative_wall_s"] < 17.0
+
+
 def test_transfer_from_lo_with_lo_encoding_starts_as_lo():
   import jax
   from halo_jax import models

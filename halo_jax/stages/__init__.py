@@ -56,6 +56,16 @@ def with_budget(config):
   return config
 
 
+def _budget_until(config) -> dict:
+  """{stage: seconds of the budget given to the method's stages up to and
+  including it} (with_budget's max_seconds, summed in order)."""
+  until, total = {}, 0.0
+  for n in needed(config, "hi"):
+    total += config[n].max_seconds
+    until[n] = total
+  return until
+
+
 # Fields that say which stages run, how long or how often to log, evaluate and
 # save, and the frequency search's settings (a search's choice is kept in
 # <workdir>/tune and reused); they may change between launches in one workdir.
@@ -139,12 +149,17 @@ def run(config, workdir: str, dataset=None) -> dict:
   log = loop.MetricsLog(workdir)
   mesh = parallel.make_mesh(config.parallel)
   states, infos, wall = {}, {}, 0.0
+  until = _budget_until(config)
   for name in needed(config):
     if name not in run_now:
       states[name] = load(workdir, name, _params_like(config, name, dataset))
       with open(_info_path(workdir, name)) as f:
         wall += json.load(f)["wall_s"]
       continue
+    if config.budget_s > 0:
+      # A stage that reached its step cap before its share of the budget
+      # leaves the rest to the next, so the method trains for budget_s.
+      config[name].max_seconds = max(config[name].max_seconds, until[name] - wall)
     if name == "ray":
       state, info = ray.train(config, dataset, workdir, states["lo"], log, wall, mesh)
     elif config[name].model.kind == "epi":
