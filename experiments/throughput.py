@@ -30,18 +30,22 @@ flags.DEFINE_integer("rounds", 3, "Rounds per measurement; the fastest is report
 flags.mark_flags_as_required(["workdir"])
 
 
-def _time(fn, *args):
-  """Seconds per call: the best of `rounds` rounds of `repeats` calls (the
-  least disturbed by whatever else the machine runs)."""
-  jax.block_until_ready(fn(*args))
+def _best_of_rounds(one_round):
+  """Seconds per call: the best of `rounds` runs of one_round() (which makes
+  `repeats` calls and waits for them), the least disturbed by whatever else
+  the machine runs."""
   best = float("inf")
   for _ in range(FLAGS.rounds):
     t = time.perf_counter()
-    for _ in range(FLAGS.repeats):
-      out = fn(*args)
-    jax.block_until_ready(out)
+    one_round()
     best = min(best, (time.perf_counter() - t) / FLAGS.repeats)
   return best
+
+
+def _time(fn, *args):
+  jax.block_until_ready(fn(*args))
+  return _best_of_rounds(lambda: jax.block_until_ready([fn(*args)
+                                                        for _ in range(FLAGS.repeats)]))
 
 
 def _flops(jitted, *args):
@@ -75,13 +79,12 @@ def step_throughput(loss_fn, cfg, params, data, rays_per_step, samples_per_ray):
   # Donation consumes the state, so time chains of steps.
   state, _, _ = fn(state)
   jax.block_until_ready(state)
-  dt = float("inf")
-  for _ in range(FLAGS.rounds):
-    t = time.perf_counter()
+  def one_round():
+    nonlocal state
     for _ in range(FLAGS.repeats):
       state, loss, _ = fn(state)
     float(loss)
-    dt = min(dt, (time.perf_counter() - t) / FLAGS.repeats)
+  dt = _best_of_rounds(one_round)
   return {"s_per_step": dt, "microbatches": cfg.microbatches, "rays_per_s": rays_per_step / dt,
           "samples_per_s": rays_per_step * samples_per_ray / dt, "gflops": flops / 1e9,
           "gflops_per_s": flops / dt / 1e9}

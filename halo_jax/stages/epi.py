@@ -128,7 +128,6 @@ def make_eval_fn(model, ray_model, cfg, theta_n, theta_f, block_rays=0):
 def train(config, dataset, workdir, name="hi", log=None, wall_offset=0.0, mesh=None):
   """Trains the light-field stage `name`; returns (StageState, info)."""
   cfg = config[name]
-  parallel.check_batch(mesh, cfg.batch_rays, f"{name}.batch_rays")
   loop.check_parts(cfg, cfg.batch_rays, f"{name}.batch_rays", mesh)
   model, ray_model = models_from_config(config, name)
   theta_n, theta_f = dataset.near, dataset.far

@@ -90,9 +90,8 @@ def check_parts(cfg, batch: int, what: str, mesh=None) -> None:
   parts = cfg.microbatches
   if parts < 1 or batch % parts:
     raise ValueError(f"microbatches={parts} does not divide {what}={batch}")
-  if mesh is not None and (batch // parts) % mesh.size:
-    raise ValueError(f"{what}={batch} in microbatches={parts} parts of {batch // parts} "
-                     f"rays does not split over the {mesh.size} devices of the mesh")
+  parallel.check_batch(mesh, batch // parts,
+                       what if parts == 1 else f"{what}/microbatches")
 
 
 def loss_and_grads(loss_fn: Callable, params, data, key, step, parts: int = 1):

@@ -186,10 +186,8 @@ def train(config, dataset, workdir, name, lo_state=None, ray_state=None, log=Non
     log, wall_offset, mesh: see loop.train.
   """
   cfg = config[name]
-  parallel.check_batch(mesh, cfg.batch_rays, f"{name}.batch_rays")
   loop.check_parts(cfg, cfg.batch_rays, f"{name}.batch_rays", mesh)
   if cfg.empty.weight > 0:
-    parallel.check_batch(mesh, cfg.empty.num_rays, f"{name}.empty.num_rays")
     loop.check_parts(cfg, cfg.empty.num_rays, f"{name}.empty.num_rays", mesh)
   near, far, white = dataset.near, dataset.far, dataset.white_background
   dynamic = models.is_dynamic(config, name)

@@ -42,7 +42,6 @@ def train(config, dataset, workdir, lo_state: StageState, log=None, wall_offset=
   hemisphere rays); that time counts as this stage's training time.
   """
   cfg = config.ray
-  parallel.check_batch(mesh, cfg.batch_rays, "ray.batch_rays")
   near, far, white = dataset.near, dataset.far, dataset.white_background
   radius = cfg.radius or dataset.radius
   model = models.ray_field_from_config(cfg, near, far)
