@@ -44,6 +44,25 @@ def test_alpha_schedule_values():
   np.testing.assert_allclose(got, [1.0, 0.875, 0.75, 0.5, 0.5])
 
 
+def test_consist_targets_on_a_diffuse_ray_with_one_surface():
+  # Window [0.2, 0.8] in tau, 6 samples: a thin surface in the second interval
+  # (0.3-0.4) over a faint haze everywhere. The mode is that interval's
+  # midpoint; the expected tau is pulled towards the window's centre.
+  from halo_jax import render
+  from halo_jax.stages import epi
+  edges = jnp.linspace(0.2, 0.8, 7)
+  sigma = jnp.array([0.5, 8.0, 0.5, 0.5, 0.5, 0.5])
+  out = render.volume_render(sigma, jnp.zeros((6, 3)), edges, white_background=False)
+  weights = np.asarray(out["weights"])
+  mids = 0.25 + 0.1 * np.arange(6)
+  np.testing.assert_allclose(epi._consist_target(out, "max_weight"), 0.35, atol=1e-6)
+  np.testing.assert_allclose(epi._consist_target(out, "expected"),
+                             (weights * mids).sum() / weights.sum(), rtol=1e-5)
+  assert float(epi._consist_target(out, "expected")) > 0.36
+  with pytest.raises(ValueError, match="joint.target"):
+    epi._consist_target(out, "median")
+
+
 def test_theta_bounds():
   # zero disparity is theta = pi/2; larger disparity (nearer) is smaller theta
   n, f = stanford_lf.theta_bounds((-1.0, 2.0), 256, 17)

@@ -79,6 +79,17 @@ def _alpha(cfg, step):
   return lightfield.alpha_schedule(step, cfg.joint.alpha_steps, cfg.joint.alpha_final)
 
 
+def _consist_target(out, target: str):
+  """tau_nerf [R]: the radiance field's expected tau, or the tau of its
+  largest weight (the mode, which a diffuse density does not pull towards the
+  window's centre)."""
+  if target == "expected":
+    return render.normalized_depth(out["depth"], out["acc"])
+  if target == "max_weight":
+    return out["depth_max"]
+  raise ValueError(f"joint.target={target!r}: use 'expected' or 'max_weight'")
+
+
 def _loss_fn(params, data, key, step, part=None, *, model, ray_model, cfg, theta_n, theta_f,
              mesh=None):
   """L_rec (+ consist_weight * L_consist for the joint sampler) on the batch,
@@ -95,7 +106,7 @@ def _loss_fn(params, data, key, step, part=None, *, model, ray_model, cfg, theta
   aux = {"psnr": metrics.mse_to_psnr(rec)}
   loss = rec
   if out["tau_ray"] is not None:
-    tau_nerf = jax.lax.stop_gradient(render.normalized_depth(out["depth"], out["acc"]))
+    tau_nerf = jax.lax.stop_gradient(_consist_target(out, cfg.joint.target))
     consist = jnp.mean((out["tau_ray"] - tau_nerf) ** 2)
     loss = loss + cfg.joint.consist_weight * consist
     aux.update(consist=consist, alpha=_alpha(cfg, step))
