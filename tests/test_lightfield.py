@@ -9,8 +9,9 @@ import numpy as np
 import pytest
 
 from conftest import SHARED_DATA
-from halo_jax import datasets, lightfield, stages
+from halo_jax import datasets, lightfield, render, stages
 from halo_jax.datasets import stanford_lf
+from halo_jax.stages import epi
 
 KNIGHTS = os.path.join(SHARED_DATA, "stanford_lf", "knights")
 
@@ -48,8 +49,6 @@ def test_consist_targets_on_a_diffuse_ray_with_one_surface():
   # Window [0.2, 0.8] in tau, 6 samples: a thin surface in the second interval
   # (0.3-0.4) over a faint haze everywhere. The mode is that interval's
   # midpoint; the expected tau is pulled towards the window's centre.
-  from halo_jax import render
-  from halo_jax.stages import epi
   edges = jnp.linspace(0.2, 0.8, 7)
   sigma = jnp.array([0.5, 8.0, 0.5, 0.5, 0.5, 0.5])
   out = render.volume_render(sigma, jnp.zeros((6, 3)), edges, white_background=False)
