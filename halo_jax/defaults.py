@@ -78,7 +78,9 @@ def _nerf_stage(L, scale, use_viewdirs, steps, num_samples, sampler):
   # from 1 to alpha_final over alpha_steps (SPEC sec. 4).
   cfg.joint = ml_collections.ConfigDict(dict(
       consist_weight=1.0, alpha_final=0.5, alpha_steps=20000,
-      target="expected",    # L_consist's tau_nerf: 'expected' (the paper) or 'max_weight'
+      # light fields (model.kind='epi'): L_consist's tau_nerf, 'expected' (the
+      # paper) or 'max_weight'; the 3D joint scheme follows Lo's depth instead
+      target="expected",
       std=1.0, num_features=16, seed=0,   # the ray field's Fourier features
       model=_model(width=128, depth=4)))
   cfg.joint.model.skips = ()
