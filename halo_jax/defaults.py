@@ -81,6 +81,10 @@ def _nerf_stage(L, scale, use_viewdirs, steps, num_samples, sampler):
       # light fields (model.kind='epi'): L_consist's tau_nerf, 'expected' (the
       # paper) or 'max_weight'; the 3D joint scheme follows Lo's depth instead
       target="expected",
+      # light fields: the share of the samples stratified over the whole
+      # range instead of the window (0: the paper's formula; the authors'
+      # code uses 0.5), so density outside the window can still form
+      full_range=0.0,
       std=1.0, num_features=16, seed=0,   # the ray field's Fourier features
       model=_model(width=128, depth=4)))
   cfg.joint.model.skips = ()

@@ -72,6 +72,31 @@ def depth_guided(key, depth, near, far, num_samples: int, radius: float,
   return stratified(key, lo, hi, num_samples, randomized)
 
 
+def with_full_range(key, window_edges, near, far, num_full: int, randomized: bool = True):
+  """Window samples plus `num_full` stratified intervals over all of [near, far].
+
+  The union of both sets of edges, sorted: N + num_full + 1 intervals that
+  tile [near, far], dense inside the window and coarse outside it, so the
+  field can still put density anywhere on the ray (the authors' light-field
+  sampler draws half its samples so).
+
+  Args:
+    key: PRNG key for the full-range samples (per-ray keys [R, 2] allowed).
+    window_edges: [..., N + 1] sorted edges inside [near, far].
+    near, far: [...] bounds (or scalars).
+    num_full: intervals over the whole range (0: window_edges unchanged).
+
+  Returns:
+    t_edges [..., N + num_full + 1], sorted, from near to far.
+  """
+  if num_full <= 0:
+    return window_edges
+  full = stratified(key, jnp.broadcast_to(jnp.asarray(near, jnp.float32),
+                                          window_edges.shape[:-1]),
+                    far, num_full, randomized)
+  return jnp.sort(jnp.concatenate([full, window_edges], -1), axis=-1)
+
+
 def hierarchical(key, t_edges, weights, num_samples: int, randomized: bool = True,
                  eps: float = 1e-5):
   """Inverse-CDF resampling of a piecewise-constant weight distribution (NeRF).

@@ -134,11 +134,12 @@ def test_other_size_view_named(tmp_path):
     datasets.load(lf_config(root).data)
 
 
-@pytest.mark.parametrize("baseline", [False, True])
-def test_joint_and_baseline_smoke(tmp_path, baseline):
+@pytest.mark.parametrize("baseline,full_range", [(False, 0.0), (False, 0.5), (True, 0.0)])
+def test_joint_and_baseline_smoke(tmp_path, baseline, full_range):
   from halo_jax import defaults
   root = write_light_field(str(tmp_path / "lf"))
   c = lf_config(root)
+  c.hi.joint.full_range = full_range
   if baseline:
     defaults.as_nerf_baseline(c)
   assert stages.needed(c) == ("hi",)

@@ -42,3 +42,22 @@ def test_hierarchical_follows_weights():
   # All-zero weights fall back to uniform over the range.
   t0 = np.asarray(samplers.hierarchical(None, edges, jnp.zeros((1, 8)), 8, randomized=False))
   np.testing.assert_allclose(t0[0], np.linspace(2, 6, 9), atol=1e-3)
+
+
+def test_with_full_range_tiles_the_range_and_keeps_the_window():
+  keys = jax.random.split(jax.random.PRNGKey(3), 4)
+  depth = jnp.array([0.1, 0.5, 0.9, 0.0])
+  win = samplers.depth_guided(keys, depth, 0.0, 1.0, 15, 0.1)
+  edges = samplers.with_full_range(jax.random.PRNGKey(4), win, 0.0, 1.0, 16)
+  e = np.asarray(edges)
+  assert e.shape == (4, 33)                      # 15 + 16 + 1 intervals
+  np.testing.assert_allclose(e[:, 0], 0.0)
+  np.testing.assert_allclose(e[:, -1], 1.0)
+  assert np.all(np.diff(e, axis=-1) >= 0)
+  # every window edge is kept, and the 16 full-range intervals reach outside it
+  for r in range(4):
+    assert np.all(np.isin(np.asarray(win[r]), e[r]))
+    lo, hi = max(0.0, float(depth[r]) - 0.1), min(1.0, float(depth[r]) + 0.1)
+    outside = ((e[r] < lo - 1e-6) | (e[r] > hi + 1e-6)).sum()
+    assert outside >= 16 * (1.0 - (hi - lo)) - 2
+  assert samplers.with_full_range(None, win, 0.0, 1.0, 0) is win

@@ -58,8 +58,19 @@ def render_rays(model, ray_model, cfg, params, uv, st, key, alpha, *, theta_n, t
   tau_ray = None
   if cfg.sampler.kind == "joint":
     tau_ray = ray_model.apply({"params": params["ray"]}, jnp.concatenate([uv, st], -1))
-    edges = samplers.depth_guided(k_s, jax.lax.stop_gradient(tau_ray), zeros, 1.0, n, alpha,
-                                  randomized=randomized)
+    # full_range of the N samples spread over the whole range, the rest
+    # (less the one interval the union adds) in the window.
+    n_full = int(round(cfg.joint.full_range * n))
+    n_win, k_f = n, None
+    if n_full > 0:
+      n_win = n - n_full - 1
+      if n_win < 1:
+        raise ValueError(f"joint.full_range={cfg.joint.full_range} leaves no window samples "
+                         f"of sampler.num_samples={n}")
+      k_s, k_f = rng.split(k_s, 2)
+    edges = samplers.depth_guided(k_s, jax.lax.stop_gradient(tau_ray), zeros, 1.0, n_win,
+                                  alpha, randomized=randomized)
+    edges = samplers.with_full_range(k_f, edges, zeros, 1.0, n_full, randomized)
   elif cfg.sampler.kind == "stratified":
     edges = samplers.stratified(k_s, zeros, 1.0, n, randomized)
   else:
