@@ -1,9 +1,11 @@
 """Two-plane light fields: EPI alignment against ray geometry, the alpha
 schedule, the Stanford loader, and smoke runs of the joint and baseline stages."""
+import functools
 import json
 import os
 
 import imageio.v3 as iio
+import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
@@ -100,7 +102,7 @@ def lf_config(root):
   c.hi.joint.model.update(width=16, depth=2)
   c.hi.sampler.num_samples = 8
   c.hi.update(batch_rays=64, steps=6, checkpoint_every=3, log_every=2, eval_every=3)
-  c.hi.joint.alpha_steps = 4
+  c.hi.joint.update(alpha_steps=4, alpha_final=0.25)
   return c
 
 
@@ -152,7 +154,7 @@ def test_joint_and_baseline_smoke(tmp_path, baseline, full_range):
   assert all(np.isfinite(r["loss"]) for r in train)
   if not baseline:
     # logged at steps 2, 4, 6 from the step counts 1, 3, 5 the loss saw
-    assert [r["alpha"] for r in train] == pytest.approx([0.875, 0.625, 0.5])
+    assert [r["alpha"] for r in train] == pytest.approx([0.8125, 0.4375, 0.25])
     assert all(r["consist"] >= 0 for r in train)
   else:
     assert all("consist" not in r for r in train)
@@ -212,3 +214,20 @@ def test_knights_disparity_sign_and_range():
   lo_delta, hi_delta = 1 / np.tan(ds.far), 1 / np.tan(ds.near)
   inside = np.mean((best >= lo_delta - 0.01) & (best <= hi_delta + 0.01))
   assert inside > 0.9, (inside, np.percentile(best, [5, 50, 95]), lo_delta, hi_delta)
+
+
+def test_full_range_keeps_the_sample_count_and_rejects_an_empty_window():
+  from configs import stanford_lf as cfg_lf
+  c = cfg_lf.get_config("scene_cpu")
+  c.hi.sampler.num_samples = 8
+  c.hi.joint.full_range = 0.5
+  model, ray_model = epi.models_from_config(c, "hi")
+  params = epi.init_params(model, ray_model, 0)
+  uv, st = jnp.zeros((5, 2)), jnp.linspace(-1, 1, 10).reshape(5, 2)
+  keys = jax.random.split(jax.random.PRNGKey(0), 5)
+  render_fn = functools.partial(epi.render_rays, model, ray_model, c.hi, params, uv, st, keys,
+                                0.1, theta_n=1.0, theta_f=2.0, randomized=True)
+  assert render_fn()["weights"].shape == (5, 8)
+  c.hi.joint.full_range = 0.9
+  with pytest.raises(ValueError, match="full_range"):
+    render_fn()
