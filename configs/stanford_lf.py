@@ -54,7 +54,7 @@ def get_config(arg: str = "knights"):
     # The authors' sampler (their code, not the paper's formula): half the
     # samples over the whole range, half in a window narrowed to +-0.25.
     # Knights, 600 s: 24.46 dB against 23.04 with every sample in a +-0.5
-    # window and 23.96 for NeRF; without the full-range half, windows
+    # window and 24.07 for NeRF; without the full-range half, windows
     # narrower than ~0.3 collapse (README, light fields).
     hi.joint.update(full_range=0.5, alpha_final=0.25)
     # SPEC's features (10 of std 64 for s, t) in our units (s, t in [-1, 1]
