@@ -85,6 +85,11 @@ def _nerf_stage(L, scale, use_viewdirs, steps, num_samples, sampler):
       # range instead of the window (0: the paper's formula; the authors'
       # code uses 0.5), so density outside the window can still form
       full_range=0.0,
+      # light fields: rays per step drawn between the training cameras (uv in
+      # their box, st anywhere) on which the ray field alone follows the
+      # radiance field through L_consist (0: none, the paper; the authors'
+      # code uses 512 with batches of 3072)
+      random_rays=0,
       std=1.0, num_features=16, seed=0,   # the ray field's Fourier features
       model=_model(width=128, depth=4)))
   cfg.joint.model.skips = ()

@@ -160,6 +160,32 @@ def test_joint_and_baseline_smoke(tmp_path, baseline, full_range):
     assert all("consist" not in r for r in train)
 
 
+def test_random_rays_train_the_ray_field_only(tmp_path):
+  """L_consist on random rays between the cameras moves the ray field's
+  gradient and leaves the radiance field's exactly as it was."""
+  root = write_light_field(str(tmp_path / "lf"))
+  c = lf_config(root)
+  ds = datasets.load(c.data)
+  data = jax.device_put(epi.training_rays(ds.train))
+  np.testing.assert_allclose(data["uv_box"], [[-1, -1], [1, 1]], atol=1e-6)
+  model, ray_model = epi.models_from_config(c, "hi")
+  params = epi.init_params(model, ray_model, 0)
+  grads = {}
+  for n in (0, 16):
+    c.hi.joint.random_rays = n
+    loss = functools.partial(epi._loss_fn, model=model, ray_model=ray_model, cfg=c.hi,
+                             theta_n=ds.near, theta_f=ds.far)
+    (_, aux), grads[n] = jax.value_and_grad(loss, has_aux=True)(
+        params, data, jax.random.PRNGKey(3), 2)
+  assert float(aux["consist_random"]) > 0
+  for a, b in zip(jax.tree_util.tree_leaves(grads[0]["nerf"]),
+                  jax.tree_util.tree_leaves(grads[16]["nerf"])):
+    np.testing.assert_array_equal(a, b)
+  diff = [float(jnp.max(jnp.abs(a - b))) for a, b in zip(
+      jax.tree_util.tree_leaves(grads[0]["ray"]), jax.tree_util.tree_leaves(grads[16]["ray"]))]
+  assert max(diff) > 1e-6
+
+
 @pytest.mark.skipif(not os.path.exists(KNIGHTS), reason="shared Stanford data absent")
 def test_knights_views_and_bounds():
   from configs import stanford_lf as cfg_lf

@@ -89,6 +89,7 @@ def test_microbatched_light_field_follows_the_whole_batch(tmp_path):
     c = lf_config(root)
     c.eval.save_images = False
     c.hi.update(log_every=1, microbatches=parts)
+    c.hi.joint.random_rays = 16   # drawn for the whole step, split like the batch
     out[parts] = _train_losses(c, str(tmp_path / f"mb{parts}"))
   assert len(out[1]) == 6
   np.testing.assert_allclose([r[2] for r in out[4]], [r[2] for r in out[1]], rtol=1e-4)

@@ -65,6 +65,20 @@ def test_skipped_steps_are_counted_in_metrics_log(tmp_path):
   assert np.all(np.isfinite(np.asarray(params["w"])))
 
 
+def test_time_budget_stops_after_the_step_that_reaches_it(tmp_path):
+  """The loop keeps one step in flight; a budget smaller than any step still
+  stops after exactly one, counts its whole time, and checkpoints it."""
+  wd = str(tmp_path)
+  cfg = _loop_cfg(50)
+  cfg.max_seconds = 1e-9
+  loss = lambda p, d, k, s: (jnp.sum((p["w"] - d) ** 2), {})
+  params, step, info = loop.train("t", cfg, wd, {"w": jnp.zeros(3)}, loss, jnp.ones(3), seed=0)
+  assert step == 1 and info["wall_s"] > 0
+  np.testing.assert_allclose(np.asarray(params["w"]), 0.1, rtol=1e-5)  # one Adam step of lr 0.1
+  mngr = checkpoint.manager(os.path.join(wd, "t", "checkpoints"))
+  assert mngr.latest_step() == 1
+
+
 # ------------------------------------------------------------ kill and resume
 
 RUN_TINY = """

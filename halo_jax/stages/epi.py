@@ -14,6 +14,7 @@ import os
 
 import jax
 import jax.numpy as jnp
+import numpy as np
 from halo_jax import (evaluate, lightfield, losses, metrics, models, parallel, render, rng,
                       samplers)
 from halo_jax.stages import field, loop
@@ -121,14 +122,47 @@ def _loss_fn(params, data, key, step, part=None, *, model, ray_model, cfg, theta
     consist = jnp.mean((out["tau_ray"] - tau_nerf) ** 2)
     loss = loss + cfg.joint.consist_weight * consist
     aux.update(consist=consist, alpha=_alpha(cfg, step))
+    if cfg.joint.random_rays > 0:
+      # fold_in leaves the training rays' keys as they were without this term
+      random = _random_ray_consist(params, data["uv_box"], jax.random.fold_in(key, 1), step,
+                                   part, model=model, ray_model=ray_model, cfg=cfg,
+                                   theta_n=theta_n, theta_f=theta_f, mesh=mesh)
+      loss = loss + cfg.joint.consist_weight * random
+      aux.update(consist_random=random)
   return loss, aux
 
 
+def _random_ray_consist(params, uv_box, key, step, part, *, model, ray_model, cfg, theta_n,
+                        theta_f, mesh=None):
+  """L_consist on joint.random_rays rays between the training cameras.
+
+  uv uniform in the training cameras' box uv_box [2 (min, max), 2], st
+  uniform in [-1, 1]. The radiance field is rendered with the current window
+  but held fixed (stop_gradient): only the ray field learns here, following
+  the radiance field at views no camera saw, where held-out views lie.
+
+  Returns the mean squared tau difference (a scalar).
+  """
+  n = cfg.joint.random_rays
+  k_uv, k_st, k_ren = jax.random.split(key, 3)
+  uv = jax.random.uniform(k_uv, (n, 2), minval=uv_box[0], maxval=uv_box[1])
+  st = jax.random.uniform(k_st, (n, 2), minval=-1.0, maxval=1.0)
+  keys = jax.random.split(k_ren, n)
+  uv, st, keys = (parallel.shard_batch(loop.part_of(x, part), mesh) for x in (uv, st, keys))
+  frozen = dict(params, nerf=jax.lax.stop_gradient(params["nerf"]))
+  out = render_rays(model, ray_model, cfg, frozen, uv, st, keys, _alpha(cfg, step),
+                    theta_n=theta_n, theta_f=theta_f, randomized=True)
+  tau_nerf = jax.lax.stop_gradient(_consist_target(out, cfg.joint.target))
+  return jnp.mean((out["tau_ray"] - tau_nerf) ** 2)
+
+
 def training_rays(views):
-  """Flat training rays: uv, st [R, 2], rgb [R, 3] (numpy)."""
+  """Flat training rays: uv, st [R, 2], rgb [R, 3], and the box of the
+  cameras' uv, uv_box [2 (min, max), 2] (numpy)."""
   o, d = views.rays()
-  return {"uv": o[..., :2].reshape(-1, 2), "st": d[..., :2].reshape(-1, 2),
-          "rgb": views.images.reshape(-1, 3)}
+  uv = o[..., :2].reshape(-1, 2)
+  return {"uv": uv, "st": d[..., :2].reshape(-1, 2), "rgb": views.images.reshape(-1, 3),
+          "uv_box": np.stack([uv.min(0), uv.max(0)])}
 
 
 def make_eval_fn(model, ray_model, cfg, theta_n, theta_f, block_rays=0):
@@ -151,6 +185,8 @@ def train(config, dataset, workdir, name="hi", log=None, wall_offset=0.0, mesh=N
   """Trains the light-field stage `name`; returns (StageState, info)."""
   cfg = config[name]
   loop.check_parts(cfg, cfg.batch_rays, f"{name}.batch_rays", mesh)
+  if cfg.sampler.kind == "joint" and cfg.joint.random_rays > 0:
+    loop.check_parts(cfg, cfg.joint.random_rays, f"{name}.joint.random_rays", mesh)
   model, ray_model = models_from_config(config, name)
   theta_n, theta_f = dataset.near, dataset.far
   data = jax.device_put(training_rays(dataset.train))
