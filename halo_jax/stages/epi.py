@@ -102,6 +102,13 @@ def _consist_target(out, target: str):
   raise ValueError(f"joint.target={target!r}: use 'expected' or 'max_weight'")
 
 
+def _consist_loss(out, target: str):
+  """L_consist = mean |tau_ray - tau_nerf|^2 over a render's rays, tau_nerf
+  held fixed, so it trains the ray field only."""
+  tau_nerf = jax.lax.stop_gradient(_consist_target(out, target))
+  return jnp.mean((out["tau_ray"] - tau_nerf) ** 2)
+
+
 def _loss_fn(params, data, key, step, part=None, *, model, ray_model, cfg, theta_n, theta_f,
              mesh=None):
   """L_rec (+ consist_weight * L_consist for the joint sampler) on the batch,
@@ -118,8 +125,7 @@ def _loss_fn(params, data, key, step, part=None, *, model, ray_model, cfg, theta
   aux = {"psnr": metrics.mse_to_psnr(rec)}
   loss = rec
   if out["tau_ray"] is not None:
-    tau_nerf = jax.lax.stop_gradient(_consist_target(out, cfg.joint.target))
-    consist = jnp.mean((out["tau_ray"] - tau_nerf) ** 2)
+    consist = _consist_loss(out, cfg.joint.target)
     loss = loss + cfg.joint.consist_weight * consist
     aux.update(consist=consist, alpha=_alpha(cfg, step))
     if cfg.joint.random_rays > 0:
@@ -152,8 +158,7 @@ def _random_ray_consist(params, uv_box, key, step, part, *, model, ray_model, cf
   frozen = dict(params, nerf=jax.lax.stop_gradient(params["nerf"]))
   out = render_rays(model, ray_model, cfg, frozen, uv, st, keys, _alpha(cfg, step),
                     theta_n=theta_n, theta_f=theta_f, randomized=True)
-  tau_nerf = jax.lax.stop_gradient(_consist_target(out, cfg.joint.target))
-  return jnp.mean((out["tau_ray"] - tau_nerf) ** 2)
+  return _consist_loss(out, cfg.joint.target)
 
 
 def training_rays(views):
