@@ -58,6 +58,9 @@ def _nerf_stage(L, scale, use_viewdirs, steps, num_samples, sampler):
       near_only=False,      # depth_guided: tighten only the near side (authors' code)
   ))
   cfg.density_noise = 1.0
+  # light fields (model.kind='epi'): composite training rays onto a random
+  # colour per ray, so partial opacity costs (the authors' light-field code)
+  cfg.random_background = False
   cfg.precrop_steps = 500
   cfg.precrop_frac = 0.5
   cfg.empty = ml_collections.ConfigDict(dict(

@@ -136,12 +136,14 @@ def test_other_size_view_named(tmp_path):
     datasets.load(lf_config(root).data)
 
 
-@pytest.mark.parametrize("baseline,full_range", [(False, 0.0), (False, 0.5), (True, 0.0)])
-def test_joint_and_baseline_smoke(tmp_path, baseline, full_range):
+@pytest.mark.parametrize("baseline,full_range,random_background",
+                         [(False, 0.0, False), (False, 0.5, True), (True, 0.0, False)])
+def test_joint_and_baseline_smoke(tmp_path, baseline, full_range, random_background):
   from halo_jax import defaults
   root = write_light_field(str(tmp_path / "lf"))
   c = lf_config(root)
   c.hi.joint.full_range = full_range
+  c.hi.random_background = random_background
   if baseline:
     defaults.as_nerf_baseline(c)
   assert stages.needed(c) == ("hi",)
@@ -184,6 +186,43 @@ def test_random_rays_train_the_ray_field_only(tmp_path):
   diff = [float(jnp.max(jnp.abs(a - b))) for a, b in zip(
       jax.tree_util.tree_leaves(grads[0]["ray"]), jax.tree_util.tree_leaves(grads[16]["ray"]))]
   assert max(diff) > 1e-6
+
+
+@pytest.mark.parametrize("uv_features", [0, 4])
+def test_view_input_reaches_only_the_colour(uv_features):
+  """(u, v) never reaches the density; without Fourier features it reaches
+  the colour layer as raw coordinates, so that layer is affine in (u, v)."""
+  from halo_jax import models
+  model = models.EPINeRF(st_features=8, theta_features=4, uv_features=uv_features, width=16,
+                         depth=2, skips=())
+  pts = jax.random.uniform(jax.random.PRNGKey(0), (32, 3))
+  uvs = [jnp.full((32, 2), -0.5), jnp.full((32, 2), 0.5), jnp.zeros((32, 2))]
+  params = model.init(jax.random.PRNGKey(1), pts, uvs[0])
+  outs = [model.apply(params, pts, uv, capture_intermediates=True) for uv in uvs]
+  for (sigma, _), _ in outs[1:]:
+    np.testing.assert_array_equal(sigma, outs[0][0][0])
+  view = [o[1]["intermediates"]["view"]["__call__"][0] for o in outs]
+  midpoint_gap = float(jnp.max(jnp.abs(view[2] - (view[0] + view[1]) / 2)))
+  assert float(jnp.max(jnp.abs(view[0] - view[1]))) > 1e-3
+  if uv_features:
+    assert midpoint_gap > 1e-3
+  else:
+    assert midpoint_gap < 1e-5
+
+
+def test_random_background_costs_only_transparency():
+  keys = jax.random.split(jax.random.PRNGKey(0), 4096)
+  rgb = jnp.full((4096, 3), 0.25)
+  # opaque rays keep their colour exactly
+  np.testing.assert_array_equal(epi.with_random_background(rgb, jnp.ones(4096), keys), rgb)
+  # empty rays show a uniform colour: mean 1/2, variance 1/12 per channel
+  empty = np.asarray(epi.with_random_background(jnp.zeros((4096, 3)), jnp.zeros(4096), keys))
+  assert empty.min() >= 0 and empty.max() < 1
+  np.testing.assert_allclose(empty.mean(0), 0.5, atol=0.02)
+  np.testing.assert_allclose(empty.var(0), 1 / 12, atol=0.005)
+  # each ray's colour comes from its own key: the halves draw as the whole
+  half = epi.with_random_background(jnp.zeros((2048, 3)), jnp.zeros(2048), keys[2048:])
+  np.testing.assert_array_equal(half, empty[2048:])
 
 
 @pytest.mark.skipif(not os.path.exists(KNIGHTS), reason="shared Stanford data absent")

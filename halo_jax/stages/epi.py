@@ -8,6 +8,8 @@ angle range [theta_n, theta_f], parameterised by tau in [0, 1].
   tau_ray +- alpha, alpha falling from 1 to joint.alpha_final, and the ray
   field follows the radiance field's expected tau through
   L_consist = |tau_ray - tau_nerf|^2 (tau_nerf held fixed in that loss).
+With `random_background`, training rays are composited onto a random colour
+(either sampler), so every ray must end in something opaque.
 """
 import functools
 import os
@@ -109,6 +111,15 @@ def _consist_loss(out, target: str):
   return jnp.mean((out["tau_ray"] - tau_nerf) ** 2)
 
 
+def with_random_background(rgb, acc, keys):
+  """rgb [R, 3] composited onto a uniform random colour per ray (from the
+  per-ray keys [R, 2]): rgb + u (1 - acc). A ray left partly transparent
+  then renders noise, so every training ray must end in something opaque
+  (the authors' light-field code does this; the scenes fill every pixel)."""
+  u = rng.uniform(jax.vmap(lambda k: jax.random.fold_in(k, 2))(keys), rgb.shape)
+  return rgb + u * (1.0 - acc[..., None])
+
+
 def _loss_fn(params, data, key, step, part=None, *, model, ray_model, cfg, theta_n, theta_f,
              mesh=None):
   """L_rec (+ consist_weight * L_consist for the joint sampler) on the batch,
@@ -121,7 +132,10 @@ def _loss_fn(params, data, key, step, part=None, *, model, ray_model, cfg, theta
   out = render_rays(model, ray_model, cfg, params, data["uv"][idx], data["st"][idx], keys,
                     _alpha(cfg, step), theta_n=theta_n, theta_f=theta_f, randomized=True,
                     noise=cfg.density_noise)
-  rec = losses.reconstruction(out["rgb"], data["rgb"][idx])
+  rgb = out["rgb"]
+  if cfg.random_background:
+    rgb = with_random_background(rgb, out["acc"], keys)
+  rec = losses.reconstruction(rgb, data["rgb"][idx])
   aux = {"psnr": metrics.mse_to_psnr(rec)}
   loss = rec
   if out["tau_ray"] is not None:
