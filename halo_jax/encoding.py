@@ -100,6 +100,19 @@ def fourier_matrix(seed: int, dim: int, num_features: int, std: float) -> np.nda
       np.float32)
 
 
+def fourier_std_from_angular(std: float, span: float) -> float:
+  """Our feature std for features written sin(f x), f ~ N(0, std^2) radians
+  per unit, over a coordinate that spans `span` units where ours spans 2.
+
+  gaussian_fourier_features uses sin(2 pi B x) with x in [-1, 1] across the
+  image (or camera grid): B cycles per unit, 2 B across. Features sin(f x)
+  over a span S complete f S / (2 pi) cycles across, so matching cycles gives
+  B = f S / (4 pi). (The authors' light-field code: sin(f x), s and t in
+  pixels / 1024, S = 1 across the image, so their std 64 is our 5.09.)
+  """
+  return std * span / (4.0 * np.pi)
+
+
 def gaussian_fourier_features(x, matrix: np.ndarray, include_input: bool = True):
   """[x, sin(2 pi x B), cos(2 pi x B)] for a fixed B [D, F].
 
