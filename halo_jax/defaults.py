@@ -101,7 +101,9 @@ def _nerf_stage(L, scale, use_viewdirs, steps, num_samples, sampler):
       # radiance field through L_consist (0: none, the paper; the authors'
       # code uses 512 with batches of 3072)
       random_rays=0,
-      std=1.0, num_features=16, seed=0,   # the ray field's Fourier features
+      # the ray field's Fourier features of (u, v, s, t); uv_std, where not
+      # 0, replaces std for (u, v)
+      std=1.0, uv_std=0.0, num_features=16, seed=0,
       model=_model(width=128, depth=4)))
   cfg.joint.model.skips = ()
   # Start from Lo-NeRF's weights: every layer of equal shape (the authors'

@@ -3,6 +3,7 @@ from typing import Sequence
 
 import flax.linen as nn
 import jax.numpy as jnp
+import numpy as np
 
 from halo_jax import encoding, rng
 
@@ -220,11 +221,21 @@ class EPINeRF(nn.Module):
     return sigma.reshape(shape), rgb.reshape(*shape, 3)
 
 
+def ray_field_matrix(seed: int, num_features: int, std: float, uv_std: float = 0.0):
+  """EPIRayField's frequency matrix B [4 (u, v, s, t), F]: N(0, std^2), the
+  (u, v) rows N(0, uv_std^2) where uv_std is not 0 (the same draw, rescaled)."""
+  matrix = encoding.fourier_matrix(seed + 3, 4, num_features, std)
+  if uv_std:
+    matrix = matrix * np.array([[uv_std / std]] * 2 + [[1.0]] * 2, np.float32)
+  return matrix
+
+
 class EPIRayField(nn.Module):
   """Two-plane ray field: (u, v, s, t) -> tau_ray in [0, 1], the ray's depth
   as a fraction of the EPI angle range (tau = (theta - theta_n) / (theta_f - theta_n)).
 
-  Low-frequency by design: Gaussian Fourier features with a small `std`.
+  Low-frequency by design: Gaussian Fourier features with a small `std`
+  (for (u, v) `uv_std` where it is not 0, as the authors' ray field has).
   """
   std: float = 1.0
   num_features: int = 16
@@ -232,12 +243,13 @@ class EPIRayField(nn.Module):
   width: int = 128
   depth: int = 4
   skips: Sequence[int] = ()
+  uv_std: float = 0.0
 
   @nn.compact
   def __call__(self, rays):
     """Args: rays [..., 4] (u, v, s, t). Returns tau [...]."""
-    x = encoding.gaussian_fourier_features(
-        _rows(rays), encoding.fourier_matrix(self.seed + 3, 4, self.num_features, self.std))
+    matrix = ray_field_matrix(self.seed, self.num_features, self.std, self.uv_std)
+    x = encoding.gaussian_fourier_features(_rows(rays), matrix)
     h = MLP(self.width, self.depth, tuple(self.skips), name="trunk")(x)
     tau = nn.sigmoid(nn.Dense(1, name="head")(h)[..., 0]) * 1.002 - 0.001
     return tau.reshape(rays.shape[:-1])
@@ -284,7 +296,8 @@ def epi_ray_field_from_config(joint_cfg):
   """EPIRayField of a stage's `joint` config."""
   m = joint_cfg.model
   return EPIRayField(std=joint_cfg.std, num_features=joint_cfg.num_features,
-                     seed=joint_cfg.seed, width=m.width, depth=m.depth, skips=tuple(m.skips))
+                     seed=joint_cfg.seed, width=m.width, depth=m.depth, skips=tuple(m.skips),
+                     uv_std=joint_cfg.get("uv_std", 0.0))
 
 
 def ray_field_from_config(cfg, near, far):

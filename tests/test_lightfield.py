@@ -210,6 +210,24 @@ def test_view_input_reaches_only_the_colour(uv_features):
     assert midpoint_gap < 1e-5
 
 
+def test_ray_field_uv_std_rescales_only_the_uv_rows():
+  from halo_jax import encoding, models
+  base = models.ray_field_matrix(0, 16, 4.0)
+  np.testing.assert_array_equal(base, encoding.fourier_matrix(3, 4, 16, 4.0))
+  mixed = models.ray_field_matrix(0, 16, 4.0, uv_std=0.5)
+  np.testing.assert_allclose(mixed[:2], base[:2] / 8.0, rtol=1e-6)   # (u, v): std 0.5
+  np.testing.assert_array_equal(mixed[2:], base[2:])                 # (s, t): std 4
+  # the model reads that matrix: its first layer sees the rescaled features
+  field = models.EPIRayField(std=4.0, uv_std=0.5, num_features=16, width=8, depth=1)
+  rays = jax.random.uniform(jax.random.PRNGKey(0), (8, 4), minval=-1, maxval=1)
+  params = field.init(jax.random.PRNGKey(1), rays)
+  _, state = field.apply(params, rays, capture_intermediates=True)
+  dense = state["intermediates"]["trunk"]["dense_0"]["__call__"][0]
+  feats = encoding.gaussian_fourier_features(rays, mixed)
+  kernel = params["params"]["trunk"]["dense_0"]
+  np.testing.assert_allclose(dense, feats @ kernel["kernel"] + kernel["bias"], atol=1e-5)
+
+
 def test_random_background_costs_only_transparency():
   keys = jax.random.split(jax.random.PRNGKey(0), 4096)
   rgb = jnp.full((4096, 3), 0.25)
