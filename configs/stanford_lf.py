@@ -77,11 +77,12 @@ def get_config(arg: str = "knights"):
     # s). The same encoding serves both methods.
     hi.fourier.update(theta_std=8.0, theta_features=16)
     # No Fourier features of (u, v) (the default uv_features=0; the colour
-    # still sees the raw u, v) matters on CPU too: the knights are diffuse, and with four views a colour that
-    # depends on (u, v) through sinusoids fits each corner whatever the
-    # geometry (held-out renders took a colour cast). HALO, 600 s: 26.04 dB
-    # with raw (u, v), 24.31 with 8 features of std 1. (The authors' colour
-    # sees only the lowest-frequency sin/cos pair of (u, v).)
+    # still sees the raw u, v) matters on CPU too: the knights are diffuse,
+    # and with four views a colour that depends on (u, v) through sinusoids
+    # fits each corner whatever the geometry (held-out renders took a colour
+    # cast). HALO, 600 s: 26.04 dB with raw (u, v), 24.31 with 8 features of
+    # std 1. (The authors' colour sees only the lowest-frequency sin/cos pair
+    # of (u, v).)
   c.baseline.num_samples = hi.sampler.num_samples  # the same field, samples everywhere
   if nerf:
     defaults.as_nerf_baseline(c)
