@@ -80,19 +80,28 @@ def test_budget_splits_by_share(config):
 
 
 def test_stages_that_stop_early_leave_their_time_to_the_next(config, scene_root, tmp_path):
-  # Lo and the ray field stop at 2 steps, far inside their shares (4 and 1.6
-  # of 16 s); Hi, capped only by time, gets what they leave, so the method
+  # Lo and the ray field stop at 2 steps, inside their shares of the budget
+  # (compile time included: 4.5 s and 6 s on a 2-core machine without
+  # AVX-512); Hi, capped only by time, gets what they leave, so the method
   # trains for the whole budget.
   config.data.root = scene_root
   config.eval.lpips = False
-  config.budget_s = 16.0
+  budget = 32.0
+  config.budget_s = budget
+  # shares wide enough for lo's and the ray field's compiles on a slow machine
+  config.budget_shares.update(lo=0.3, ray=0.3, hi=0.4)
   for name, steps in (("lo", 2), ("ray", 2), ("hi", 10 ** 6)):
     config[name].update(steps=steps, checkpoint_every=10 ** 6, log_every=10 ** 6,
                         eval_every=0)
+  total = sum(config.budget_shares[n] for n in ("lo", "ray", "hi"))
+  share = {n: budget * config.budget_shares[n] / total for n in ("lo", "ray", "hi")}
   infos = stages.run(config, str(tmp_path / "run"))
-  assert infos["lo"]["wall_s"] < 3.0 and infos["lo"]["step"] == 2
-  assert infos["hi"]["wall_s"] > 10.4 + 0.8  # more than its own share (65%)
-  assert 15.5 < infos["hi"]["cumulative_wall_s"] < 17.0
+  for name in ("lo", "ray"):
+    assert infos[name]["step"] == 2 and infos[name]["wall_s"] < share[name]
+  used = infos["lo"]["wall_s"] + infos["ray"]["wall_s"]
+  # Hi trains until the budget is spent: its own share plus what they left.
+  assert infos["hi"]["wall_s"] > share["hi"] + 0.8 * (share["lo"] + share["ray"] - used)
+  assert budget - 0.5 < infos["hi"]["cumulative_wall_s"] < budget + 1.0
 
 
 def test_transfer_from_lo_with_lo_encoding_starts_as_lo():
