@@ -101,6 +101,11 @@ def _nerf_stage(L, scale, use_viewdirs, steps, num_samples, sampler):
       # radiance field through L_consist (0: none, the paper; the authors'
       # code uses 512 with batches of 3072)
       random_rays=0,
+      # light fields: weight of the ray field's own colour loss (0: no colour
+      # head, the paper). Above 0 the ray field gets a colour head trained on
+      # the training pixels and, on the random rays, on the radiance field's
+      # colour (held fixed): the authors' light-field code, weight 1
+      color_weight=0.0,
       # the ray field's Fourier features of (u, v, s, t); uv_std, where not
       # 0, replaces std for (u, v)
       std=1.0, uv_std=0.0, num_features=16, seed=0,

@@ -237,6 +237,11 @@ class EPIRayField(nn.Module):
   Gaussian Fourier features of std `std`, for (u, v) `uv_std` where it is
   not 0: low across the camera plane, where held-out views lie (the knights
   configs: the authors' 0.17 for (u, v), 5.09 for (s, t)).
+
+  With `color`, a second head on the same trunk predicts the ray's colour
+  (one hidden layer that also reads the raw (u, v), as the radiance field's
+  colour does): the authors' light-field ray field has one, trained on the
+  pixels, so the trunk the angle head reads also learns the image.
   """
   std: float = 1.0
   num_features: int = 16
@@ -245,15 +250,24 @@ class EPIRayField(nn.Module):
   depth: int = 4
   skips: Sequence[int] = ()
   uv_std: float = 0.0
+  color: bool = False
 
   @nn.compact
   def __call__(self, rays):
-    """Args: rays [..., 4] (u, v, s, t). Returns tau [...]."""
+    """Args: rays [..., 4] (u, v, s, t). Returns tau [...], or with `color`
+    (tau [...], rgb [..., 3])."""
+    rows = _rows(rays)
     matrix = ray_field_matrix(self.seed, self.num_features, self.std, self.uv_std)
-    x = encoding.gaussian_fourier_features(_rows(rays), matrix)
+    x = encoding.gaussian_fourier_features(rows, matrix)
     h = MLP(self.width, self.depth, tuple(self.skips), name="trunk")(x)
     tau = nn.sigmoid(nn.Dense(1, name="head")(h)[..., 0]) * 1.002 - 0.001
-    return tau.reshape(rays.shape[:-1])
+    tau = tau.reshape(rays.shape[:-1])
+    if not self.color:
+      return tau
+    c = nn.relu(nn.Dense(self.width, name="color_hidden")(
+        jnp.concatenate([h, rows[:, :2]], -1)))
+    rgb = nn.sigmoid(nn.Dense(3, name="color")(c)) * 1.002 - 0.001
+    return tau, rgb.reshape(*rays.shape[:-1], 3)
 
 
 def nerf_from_config(config, name: str):
@@ -298,7 +312,8 @@ def epi_ray_field_from_config(joint_cfg):
   m = joint_cfg.model
   return EPIRayField(std=joint_cfg.std, num_features=joint_cfg.num_features,
                      seed=joint_cfg.seed, width=m.width, depth=m.depth, skips=tuple(m.skips),
-                     uv_std=joint_cfg.get("uv_std", 0.0))
+                     uv_std=joint_cfg.get("uv_std", 0.0),
+                     color=joint_cfg.get("color_weight", 0.0) > 0)
 
 
 def ray_field_from_config(cfg, near, far):

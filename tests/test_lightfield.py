@@ -188,6 +188,39 @@ def test_random_rays_train_the_ray_field_only(tmp_path):
   assert max(diff) > 1e-6
 
 
+def test_ray_field_colour_head_trains_the_ray_field_only(tmp_path):
+  """The ray field's colour loss (on the pixels and, on random rays, towards
+  the radiance field's colour) leaves the radiance field's gradient exactly
+  as without a colour head, and changes the ray field's trunk gradient."""
+  root = write_light_field(str(tmp_path / "lf"))
+  c = lf_config(root)
+  c.hi.joint.random_rays = 16
+  ds = datasets.load(c.data)
+  data = jax.device_put(epi.training_rays(ds.train))
+  grads, auxes = {}, {}
+  for w in (0.0, 1.0):
+    c.hi.joint.color_weight = w
+    model, ray_model = epi.models_from_config(c, "hi")
+    assert ray_model.color == (w > 0)
+    params = epi.init_params(model, ray_model, 0)
+    loss = functools.partial(epi._loss_fn, model=model, ray_model=ray_model, cfg=c.hi,
+                             theta_n=ds.near, theta_f=ds.far)
+    (_, auxes[w]), grads[w] = jax.value_and_grad(loss, has_aux=True)(
+        params, data, jax.random.PRNGKey(3), 2)
+  assert set(grads[1.0]["ray"]) == set(grads[0.0]["ray"]) | {"color_hidden", "color"}
+  assert 0 < float(auxes[1.0]["ray_psnr"]) < 60 and float(auxes[1.0]["color_random"]) > 0
+  assert float(auxes[1.0]["consist"]) == pytest.approx(float(auxes[0.0]["consist"]))
+  for a, b in zip(jax.tree_util.tree_leaves(grads[0.0]["nerf"]),
+                  jax.tree_util.tree_leaves(grads[1.0]["nerf"])):
+    np.testing.assert_array_equal(a, b)
+  diff = jax.tree_util.tree_map(lambda a, b: float(jnp.max(jnp.abs(a - b))),
+                                grads[0.0]["ray"]["trunk"], grads[1.0]["ray"]["trunk"])
+  assert max(jax.tree_util.tree_leaves(diff)) > 1e-6
+  # the colour head's output: one colour per ray, inside [0, 1] up to the margin
+  _, rgb = ray_model.apply({"params": params["ray"]}, jnp.zeros((5, 7, 4)))
+  assert rgb.shape == (5, 7, 3) and float(rgb.min()) >= -1e-3 and float(rgb.max()) <= 1 + 1e-3
+
+
 @pytest.mark.parametrize("uv_features", [0, 4])
 def test_view_input_reaches_only_the_colour(uv_features):
   """(u, v) never reaches the density; without Fourier features it reaches

@@ -53,14 +53,17 @@ def render_rays(model, ray_model, cfg, params, uv, st, key, alpha, *, theta_n, t
 
   Returns:
     render dict (rgb, depth = expected tau, acc, weights, ...) plus tau_ray
-    [R] for the joint sampler.
+    [R] for the joint sampler and rgb_ray [R, 3] where the ray field has a
+    colour head (else None).
   """
   k_s, k_n = rng.split(key, 2)
   n = cfg.sampler.num_samples
   zeros = jnp.zeros(uv.shape[:-1], jnp.float32)
-  tau_ray = None
+  tau_ray = rgb_ray = None
   if cfg.sampler.kind == "joint":
     tau_ray = ray_model.apply({"params": params["ray"]}, jnp.concatenate([uv, st], -1))
+    if ray_model.color:
+      tau_ray, rgb_ray = tau_ray
     # full_range of the N samples spread over the whole range, the rest
     # (less the one interval the union adds) in the window.
     n_full = int(round(cfg.joint.full_range * n))
@@ -85,7 +88,7 @@ def render_rays(model, ray_model, cfg, params, uv, st, key, alpha, *, theta_n, t
   views = jnp.broadcast_to(uv[..., None, :], (*pts.shape[:-1], 2))
   sigma, rgb = model.apply({"params": params["nerf"]}, pts, views, k_n, noise)
   out = render.volume_render(sigma, rgb, edges, white_background=False)
-  out["tau_ray"] = tau_ray
+  out["tau_ray"], out["rgb_ray"] = tau_ray, rgb_ray
   return out
 
 
@@ -122,8 +125,9 @@ def with_random_background(rgb, acc, keys):
 
 def _loss_fn(params, data, key, step, part=None, *, model, ray_model, cfg, theta_n, theta_f,
              mesh=None):
-  """L_rec (+ consist_weight * L_consist for the joint sampler) on the batch,
-  or on its `part` (loop.part_of)."""
+  """L_rec (+ consist_weight * L_consist for the joint sampler, + color_weight
+  * the ray field's colour loss where it has a colour head) on the batch, or
+  on its `part` (loop.part_of)."""
   k_idx, k_ren = jax.random.split(key)
   idx = jax.random.randint(k_idx, (cfg.batch_rays,), 0, data["rgb"].shape[0])
   keys = jax.random.split(k_ren, cfg.batch_rays)  # per ray: parts draw as the whole
@@ -142,13 +146,21 @@ def _loss_fn(params, data, key, step, part=None, *, model, ray_model, cfg, theta
     consist = _consist_loss(out, cfg.joint.target)
     loss = loss + cfg.joint.consist_weight * consist
     aux.update(consist=consist, alpha=_alpha(cfg, step))
+    if out["rgb_ray"] is not None:
+      # the ray field's colour head on the pixels (the authors' nelf_rec_loss)
+      ray_rec = losses.reconstruction(out["rgb_ray"], data["rgb"][idx])
+      loss = loss + cfg.joint.color_weight * ray_rec
+      aux.update(ray_psnr=metrics.mse_to_psnr(ray_rec))
     if cfg.joint.random_rays > 0:
       # fold_in leaves the training rays' keys as they were without this term
-      random = _random_ray_consist(params, data["uv_box"], jax.random.fold_in(key, 1), step,
-                                   part, model=model, ray_model=ray_model, cfg=cfg,
-                                   theta_n=theta_n, theta_f=theta_f, mesh=mesh)
+      random, color = _random_ray_consist(params, data["uv_box"], jax.random.fold_in(key, 1),
+                                          step, part, model=model, ray_model=ray_model,
+                                          cfg=cfg, theta_n=theta_n, theta_f=theta_f, mesh=mesh)
       loss = loss + cfg.joint.consist_weight * random
       aux.update(consist_random=random)
+      if color is not None:
+        loss = loss + cfg.joint.color_weight * color
+        aux.update(color_random=color)
   return loss, aux
 
 
@@ -159,9 +171,11 @@ def _random_ray_consist(params, uv_box, key, step, part, *, model, ray_model, cf
   uv uniform in the training cameras' box uv_box [2 (min, max), 2], st
   uniform in [-1, 1]. The radiance field is rendered with the current window
   but held fixed (stop_gradient): only the ray field learns here, following
-  the radiance field at views no camera saw, where held-out views lie.
+  the radiance field at views no camera saw, where held-out views lie. With
+  a colour head the ray field's colour also follows the radiance field's.
 
-  Returns the mean squared tau difference (a scalar).
+  Returns the mean squared tau difference and the ray field's mean squared
+  colour difference (None without a colour head), scalars.
   """
   n = cfg.joint.random_rays
   k_uv, k_st, k_ren = jax.random.split(key, 3)
@@ -172,7 +186,10 @@ def _random_ray_consist(params, uv_box, key, step, part, *, model, ray_model, cf
   frozen = dict(params, nerf=jax.lax.stop_gradient(params["nerf"]))
   out = render_rays(model, ray_model, cfg, frozen, uv, st, keys, _alpha(cfg, step),
                     theta_n=theta_n, theta_f=theta_f, randomized=True)
-  return _consist_loss(out, cfg.joint.target)
+  consist = _consist_loss(out, cfg.joint.target)
+  if out["rgb_ray"] is None:
+    return consist, None
+  return consist, jnp.mean((out["rgb_ray"] - jax.lax.stop_gradient(out["rgb"])) ** 2)
 
 
 def training_rays(views):
