@@ -106,6 +106,10 @@ def _nerf_stage(L, scale, use_viewdirs, steps, num_samples, sampler):
       # the training pixels and, on the random rays, on the radiance field's
       # colour (held fixed): the authors' light-field code, weight 1
       color_weight=0.0,
+      # light fields: L_consist's weight into the radiance field (its tau
+      # pulled towards the ray field's, held fixed). The paper's formula has
+      # no stop-gradient; the authors' code trains only the ray field (0)
+      nerf_consist_weight=0.0,
       # the ray field's Fourier features of (u, v, s, t); uv_std, where not
       # 0, replaces std for (u, v)
       std=1.0, uv_std=0.0, num_features=16, seed=0,

@@ -221,6 +221,44 @@ def test_ray_field_colour_head_trains_the_ray_field_only(tmp_path):
   assert rgb.shape == (5, 7, 3) and float(rgb.min()) >= -1e-3 and float(rgb.max()) <= 1 + 1e-3
 
 
+def test_nerf_consist_weight_trains_the_radiance_field_only(tmp_path):
+  """joint.nerf_consist_weight moves the radiance field's gradient by the
+  gradient of w * mean (tau_ray - tau_nerf)^2 with tau_ray fixed, and leaves
+  the ray field's exactly as it was."""
+  root = write_light_field(str(tmp_path / "lf"))
+  c = lf_config(root)
+  ds = datasets.load(c.data)
+  data = jax.device_put(epi.training_rays(ds.train))
+  model, ray_model = epi.models_from_config(c, "hi")
+  params = epi.init_params(model, ray_model, 0)
+  grads = {}
+  for w in (0.0, 0.5):
+    c.hi.joint.nerf_consist_weight = w
+    loss = functools.partial(epi._loss_fn, model=model, ray_model=ray_model, cfg=c.hi,
+                             theta_n=ds.near, theta_f=ds.far)
+    grads[w] = jax.grad(lambda p: loss(p, data, jax.random.PRNGKey(3), 2)[0])(params)
+  for a, b in zip(jax.tree_util.tree_leaves(grads[0.0]["ray"]),
+                  jax.tree_util.tree_leaves(grads[0.5]["ray"])):
+    np.testing.assert_array_equal(a, b)
+  # the difference is the pull's own gradient, computed here independently
+  # from a render with the same key (jax.random.split as _loss_fn splits it)
+  def pull(nerf):
+    k_idx, k_ren = jax.random.split(jax.random.PRNGKey(3))
+    idx = jax.random.randint(k_idx, (c.hi.batch_rays,), 0, data["rgb"].shape[0])
+    keys = jax.random.split(k_ren, c.hi.batch_rays)
+    out = epi.render_rays(model, ray_model, c.hi, dict(params, nerf=nerf), data["uv"][idx],
+                          data["st"][idx], keys, epi._alpha(c.hi, 2), theta_n=ds.near,
+                          theta_f=ds.far, randomized=True, noise=c.hi.density_noise)
+    tau = out["depth"] / jnp.maximum(out["acc"], 1e-10)
+    return 0.5 * jnp.mean((jax.lax.stop_gradient(out["tau_ray"]) - tau) ** 2)
+  expected = jax.grad(pull)(params["nerf"])
+  for a, b, e in zip(jax.tree_util.tree_leaves(grads[0.0]["nerf"]),
+                     jax.tree_util.tree_leaves(grads[0.5]["nerf"]),
+                     jax.tree_util.tree_leaves(expected)):
+    np.testing.assert_allclose(b - a, e, rtol=1e-3, atol=1e-7)
+  assert max(float(jnp.max(jnp.abs(e))) for e in jax.tree_util.tree_leaves(expected)) > 1e-7
+
+
 @pytest.mark.parametrize("uv_features", [0, 4])
 def test_view_input_reaches_only_the_colour(uv_features):
   """(u, v) never reaches the density; without Fourier features it reaches

@@ -125,7 +125,8 @@ def with_random_background(rgb, acc, keys):
 
 def _loss_fn(params, data, key, step, part=None, *, model, ray_model, cfg, theta_n, theta_f,
              mesh=None):
-  """L_rec (+ consist_weight * L_consist for the joint sampler, + color_weight
+  """L_rec (+ consist_weight * L_consist for the joint sampler, the same
+  with nerf_consist_weight into the radiance field, + color_weight
   * the ray field's colour loss where it has a colour head) on the batch, or
   on its `part` (loop.part_of)."""
   k_idx, k_ren = jax.random.split(key)
@@ -146,6 +147,12 @@ def _loss_fn(params, data, key, step, part=None, *, model, ray_model, cfg, theta
     consist = _consist_loss(out, cfg.joint.target)
     loss = loss + cfg.joint.consist_weight * consist
     aux.update(consist=consist, alpha=_alpha(cfg, step))
+    if cfg.joint.nerf_consist_weight > 0:
+      # the other half of the paper's L_consist, which the authors' code
+      # detaches: the radiance field's tau pulled towards the ray field's
+      pull = jnp.mean((jax.lax.stop_gradient(out["tau_ray"])
+                       - _consist_target(out, cfg.joint.target)) ** 2)
+      loss = loss + cfg.joint.nerf_consist_weight * pull
     if out["rgb_ray"] is not None:
       # the ray field's colour head on the pixels (the authors' nelf_rec_loss)
       ray_rec = losses.reconstruction(out["rgb_ray"], data["rgb"][idx])
