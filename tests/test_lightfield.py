@@ -162,61 +162,64 @@ def test_joint_and_baseline_smoke(tmp_path, baseline, full_range, random_backgro
     assert all("consist" not in r for r in train)
 
 
+def joint_loss_grads(c, setting, values):
+  """epi._loss_fn's (aux, grads) at key 3, step 2 for each value of
+  c.hi.joint.<setting>, the fields built anew for each (a colour head adds
+  parameters; the others start equal). Returns (dataset, data, {value: (aux,
+  grads)})."""
+  ds = datasets.load(c.data)
+  data = jax.device_put(epi.training_rays(ds.train))
+  out = {}
+  for v in values:
+    c.hi.joint[setting] = v
+    model, ray_model = epi.models_from_config(c, "hi")
+    loss = functools.partial(epi._loss_fn, model=model, ray_model=ray_model, cfg=c.hi,
+                             theta_n=ds.near, theta_f=ds.far)
+    (_, aux), grads = jax.value_and_grad(loss, has_aux=True)(
+        epi.init_params(model, ray_model, 0), data, jax.random.PRNGKey(3), 2)
+    out[v] = aux, grads
+  return ds, data, out
+
+
+def assert_leaves_equal(a, b):
+  for x, y in zip(jax.tree_util.tree_leaves(a), jax.tree_util.tree_leaves(b), strict=True):
+    np.testing.assert_array_equal(x, y)
+
+
+def max_leaf_difference(a, b):
+  return max(float(jnp.max(jnp.abs(x - y)))
+             for x, y in zip(jax.tree_util.tree_leaves(a), jax.tree_util.tree_leaves(b),
+                             strict=True))
+
+
 def test_random_rays_train_the_ray_field_only(tmp_path):
   """L_consist on random rays between the cameras moves the ray field's
   gradient and leaves the radiance field's exactly as it was."""
-  root = write_light_field(str(tmp_path / "lf"))
-  c = lf_config(root)
-  ds = datasets.load(c.data)
-  data = jax.device_put(epi.training_rays(ds.train))
+  c = lf_config(write_light_field(str(tmp_path / "lf")))
+  _, data, out = joint_loss_grads(c, "random_rays", (0, 16))
   np.testing.assert_allclose(data["uv_box"], [[-1, -1], [1, 1]], atol=1e-6)
-  model, ray_model = epi.models_from_config(c, "hi")
-  params = epi.init_params(model, ray_model, 0)
-  grads = {}
-  for n in (0, 16):
-    c.hi.joint.random_rays = n
-    loss = functools.partial(epi._loss_fn, model=model, ray_model=ray_model, cfg=c.hi,
-                             theta_n=ds.near, theta_f=ds.far)
-    (_, aux), grads[n] = jax.value_and_grad(loss, has_aux=True)(
-        params, data, jax.random.PRNGKey(3), 2)
-  assert float(aux["consist_random"]) > 0
-  for a, b in zip(jax.tree_util.tree_leaves(grads[0]["nerf"]),
-                  jax.tree_util.tree_leaves(grads[16]["nerf"])):
-    np.testing.assert_array_equal(a, b)
-  diff = [float(jnp.max(jnp.abs(a - b))) for a, b in zip(
-      jax.tree_util.tree_leaves(grads[0]["ray"]), jax.tree_util.tree_leaves(grads[16]["ray"]))]
-  assert max(diff) > 1e-6
+  assert float(out[16][0]["consist_random"]) > 0
+  assert_leaves_equal(out[0][1]["nerf"], out[16][1]["nerf"])
+  assert max_leaf_difference(out[0][1]["ray"], out[16][1]["ray"]) > 1e-6
 
 
 def test_ray_field_colour_head_trains_the_ray_field_only(tmp_path):
   """The ray field's colour loss (on the pixels and, on random rays, towards
   the radiance field's colour) leaves the radiance field's gradient exactly
   as without a colour head, and changes the ray field's trunk gradient."""
-  root = write_light_field(str(tmp_path / "lf"))
-  c = lf_config(root)
+  c = lf_config(write_light_field(str(tmp_path / "lf")))
   c.hi.joint.random_rays = 16
-  ds = datasets.load(c.data)
-  data = jax.device_put(epi.training_rays(ds.train))
-  grads, auxes = {}, {}
-  for w in (0.0, 1.0):
-    c.hi.joint.color_weight = w
-    model, ray_model = epi.models_from_config(c, "hi")
-    assert ray_model.color == (w > 0)
-    params = epi.init_params(model, ray_model, 0)
-    loss = functools.partial(epi._loss_fn, model=model, ray_model=ray_model, cfg=c.hi,
-                             theta_n=ds.near, theta_f=ds.far)
-    (_, auxes[w]), grads[w] = jax.value_and_grad(loss, has_aux=True)(
-        params, data, jax.random.PRNGKey(3), 2)
-  assert set(grads[1.0]["ray"]) == set(grads[0.0]["ray"]) | {"color_hidden", "color"}
-  assert 0 < float(auxes[1.0]["ray_psnr"]) < 60 and float(auxes[1.0]["color_random"]) > 0
-  assert float(auxes[1.0]["consist"]) == pytest.approx(float(auxes[0.0]["consist"]))
-  for a, b in zip(jax.tree_util.tree_leaves(grads[0.0]["nerf"]),
-                  jax.tree_util.tree_leaves(grads[1.0]["nerf"])):
-    np.testing.assert_array_equal(a, b)
-  diff = jax.tree_util.tree_map(lambda a, b: float(jnp.max(jnp.abs(a - b))),
-                                grads[0.0]["ray"]["trunk"], grads[1.0]["ray"]["trunk"])
-  assert max(jax.tree_util.tree_leaves(diff)) > 1e-6
+  _, _, out = joint_loss_grads(c, "color_weight", (0.0, 1.0))
+  (aux0, grads0), (aux1, grads1) = out[0.0], out[1.0]
+  assert set(grads1["ray"]) == set(grads0["ray"]) | {"color_hidden", "color"}
+  assert 0 < float(aux1["ray_psnr"]) < 60 and float(aux1["color_random"]) > 0
+  assert float(aux1["consist"]) == pytest.approx(float(aux0["consist"]))
+  assert_leaves_equal(grads0["nerf"], grads1["nerf"])
+  assert max_leaf_difference(grads0["ray"]["trunk"], grads1["ray"]["trunk"]) > 1e-6
   # the colour head's output: one colour per ray, inside [0, 1] up to the margin
+  model, ray_model = epi.models_from_config(c, "hi")
+  assert ray_model.color
+  params = epi.init_params(model, ray_model, 0)
   _, rgb = ray_model.apply({"params": params["ray"]}, jnp.zeros((5, 7, 4)))
   assert rgb.shape == (5, 7, 3) and float(rgb.min()) >= -1e-3 and float(rgb.max()) <= 1 + 1e-3
 
@@ -225,23 +228,14 @@ def test_nerf_consist_weight_trains_the_radiance_field_only(tmp_path):
   """joint.nerf_consist_weight moves the radiance field's gradient by the
   gradient of w * mean (tau_ray - tau_nerf)^2 with tau_ray fixed, and leaves
   the ray field's exactly as it was."""
-  root = write_light_field(str(tmp_path / "lf"))
-  c = lf_config(root)
-  ds = datasets.load(c.data)
-  data = jax.device_put(epi.training_rays(ds.train))
-  model, ray_model = epi.models_from_config(c, "hi")
-  params = epi.init_params(model, ray_model, 0)
-  grads = {}
-  for w in (0.0, 0.5):
-    c.hi.joint.nerf_consist_weight = w
-    loss = functools.partial(epi._loss_fn, model=model, ray_model=ray_model, cfg=c.hi,
-                             theta_n=ds.near, theta_f=ds.far)
-    grads[w] = jax.grad(lambda p: loss(p, data, jax.random.PRNGKey(3), 2)[0])(params)
-  for a, b in zip(jax.tree_util.tree_leaves(grads[0.0]["ray"]),
-                  jax.tree_util.tree_leaves(grads[0.5]["ray"])):
-    np.testing.assert_array_equal(a, b)
+  c = lf_config(write_light_field(str(tmp_path / "lf")))
+  ds, data, out = joint_loss_grads(c, "nerf_consist_weight", (0.0, 0.5))
+  grads0, grads1 = out[0.0][1], out[0.5][1]
+  assert_leaves_equal(grads0["ray"], grads1["ray"])
   # the difference is the pull's own gradient, computed here independently
   # from a render with the same key (jax.random.split as _loss_fn splits it)
+  model, ray_model = epi.models_from_config(c, "hi")
+  params = epi.init_params(model, ray_model, 0)
   def pull(nerf):
     k_idx, k_ren = jax.random.split(jax.random.PRNGKey(3))
     idx = jax.random.randint(k_idx, (c.hi.batch_rays,), 0, data["rgb"].shape[0])
@@ -252,9 +246,9 @@ def test_nerf_consist_weight_trains_the_radiance_field_only(tmp_path):
     tau = out["depth"] / jnp.maximum(out["acc"], 1e-10)
     return 0.5 * jnp.mean((jax.lax.stop_gradient(out["tau_ray"]) - tau) ** 2)
   expected = jax.grad(pull)(params["nerf"])
-  for a, b, e in zip(jax.tree_util.tree_leaves(grads[0.0]["nerf"]),
-                     jax.tree_util.tree_leaves(grads[0.5]["nerf"]),
-                     jax.tree_util.tree_leaves(expected)):
+  for a, b, e in zip(jax.tree_util.tree_leaves(grads0["nerf"]),
+                     jax.tree_util.tree_leaves(grads1["nerf"]),
+                     jax.tree_util.tree_leaves(expected), strict=True):
     np.testing.assert_allclose(b - a, e, rtol=1e-3, atol=1e-7)
   assert max(float(jnp.max(jnp.abs(e))) for e in jax.tree_util.tree_leaves(expected)) > 1e-7
 
