@@ -243,7 +243,7 @@ def test_nerf_consist_weight_trains_the_radiance_field_only(tmp_path):
     out = epi.render_rays(model, ray_model, c.hi, dict(params, nerf=nerf), data["uv"][idx],
                           data["st"][idx], keys, epi._alpha(c.hi, 2), theta_n=ds.near,
                           theta_f=ds.far, randomized=True, noise=c.hi.density_noise)
-    tau = out["depth"] / jnp.maximum(out["acc"], 1e-10)
+    tau = render.normalized_depth(out["depth"], out["acc"])
     return 0.5 * jnp.mean((jax.lax.stop_gradient(out["tau_ray"]) - tau) ** 2)
   expected = jax.grad(pull)(params["nerf"])
   for a, b, e in zip(jax.tree_util.tree_leaves(grads0["nerf"]),

@@ -199,7 +199,8 @@ def _random_ray_consist(params, uv_box, key, step, part, *, model, ray_model, cf
   consist = _consist_loss(out, cfg.joint.target)
   if out["rgb_ray"] is None:
     return consist, None
-  return consist, jnp.mean((out["rgb_ray"] - jax.lax.stop_gradient(out["rgb"])) ** 2)
+  # out["rgb"] carries no gradient: the radiance field is frozen above
+  return consist, losses.reconstruction(out["rgb_ray"], out["rgb"])
 
 
 def training_rays(views):
