@@ -14,7 +14,7 @@ defaulting to ../shared/data; override with --config.data.root=PATH.
 """
 import os
 
-from halo_jax import defaults
+from halo_jax import defaults, methods
 
 # The paper's table "Training images for the 8 view setting".
 EIGHT_VIEWS = {
@@ -32,8 +32,8 @@ CPU_BUDGET_S = 600.0
 
 
 def get_config(arg: str = "lego_8view"):
-  parts, flags = defaults.split_variant(arg)
-  cpu, nerf = "cpu" in flags, "nerf" in flags
+  parts, flags, method = methods.split_variant(arg)
+  cpu = "cpu" in flags
   scene, setting = parts[0], "_".join(parts[1:])
   c = defaults.base_config()
   c.data.kind = "blender"
@@ -56,6 +56,4 @@ def get_config(arg: str = "lego_8view"):
     c.data.factor = 8
     c.data.test_views = "every:8"
     defaults.cpu_sized(c, CPU_BUDGET_S)
-  if nerf:
-    defaults.as_nerf_baseline(c)
-  return c
+  return methods.apply(c, method)

@@ -19,7 +19,7 @@ frame) works too: --config.data.root=PATH --config.data.factor=8
 """
 import os
 
-from halo_jax import defaults
+from halo_jax import defaults, methods
 
 CPU_BUDGET_S = 600.0
 
@@ -49,8 +49,8 @@ def _dynamic(c):
 
 
 def get_config(arg: str = "lego"):
-  parts, flags = defaults.split_variant(arg)
-  cpu, nerf = "cpu" in flags, "nerf" in flags
+  parts, flags, method = methods.split_variant(arg)
+  cpu = "cpu" in flags
   if parts != ["lego"]:
     raise ValueError(f"unknown variant {arg!r}: use lego or lego_cpu, optionally with _nerf")
   c = defaults.base_config()
@@ -69,6 +69,4 @@ def get_config(arg: str = "lego"):
       c[name].model.update(deform_width=64, deform_depth=3)
   _dynamic(c)
   c.eval.chunk = 10000
-  if nerf:
-    defaults.as_nerf_baseline(c)
-  return c
+  return methods.apply(c, method)

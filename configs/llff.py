@@ -22,7 +22,7 @@ The scene folder defaults to $HALO_DATA/nerf_llff_data/<scene>.
 """
 import os
 
-from halo_jax import defaults
+from halo_jax import defaults, methods
 
 # The paper's table "Four training views and one validation view on LLFF".
 FOUR_VIEWS = {
@@ -35,8 +35,8 @@ CPU_BUDGET_S = 600.0
 
 
 def get_config(arg: str = "fern_4view"):
-  parts, flags = defaults.split_variant(arg, ("cpu", "nerf", "joint"))
-  cpu, nerf = "cpu" in flags, "nerf" in flags
+  parts, flags, method = methods.split_variant(arg, ("cpu", "joint"))
+  cpu = "cpu" in flags
   if len(parts) != 2 or parts[1] != "4view" or parts[0] not in FOUR_VIEWS:
     raise ValueError(f"unknown variant {arg!r}: use <scene>_4view[_cpu][_nerf] with scene "
                      f"in {sorted(FOUR_VIEWS)}")
@@ -60,7 +60,4 @@ def get_config(arg: str = "fern_4view"):
   if "joint" in flags:
     c.hi.sampler.kind = "joint"
     c.stages = "lo,hi"
-  if nerf:
-    defaults.as_nerf_baseline(c)
-    c.hi.precrop_steps = 0
-  return c
+  return methods.apply(c, method)

@@ -18,7 +18,7 @@ The scene folder defaults to $HALO_DATA/stanford_lf/<scene>.
 """
 import os
 
-from halo_jax import defaults
+from halo_jax import defaults, methods
 
 TRAIN = "04_04,04_12,12_04,12_12"
 TEST = "08_06,08_10,06_08,10_08"
@@ -26,8 +26,8 @@ CPU_BUDGET_S = 600.0
 
 
 def get_config(arg: str = "knights"):
-  parts, flags = defaults.split_variant(arg)
-  cpu, nerf = "cpu" in flags, "nerf" in flags
+  parts, flags, method = methods.split_variant(arg)
+  cpu = "cpu" in flags
   if len(parts) != 1:
     raise ValueError(f"unknown variant {arg!r}: use <scene>[_cpu][_nerf]")
   c = defaults.base_config()
@@ -37,7 +37,7 @@ def get_config(arg: str = "knights"):
                                   parts[0]))
   c.stages = "hi"
   hi = c.hi
-  hi.model.kind = "epi"
+  defaults.light_field_stage(hi)
   hi.sampler.kind = "joint"
   hi.empty.weight = 0.0
   # Training rays composited onto a random colour (the authors' code): every
@@ -84,6 +84,4 @@ def get_config(arg: str = "knights"):
     # std 1. (The authors' colour sees only the lowest-frequency sin/cos pair
     # of (u, v).)
   c.baseline.num_samples = hi.sampler.num_samples  # the same field, samples everywhere
-  if nerf:
-    defaults.as_nerf_baseline(c)
-  return c
+  return methods.apply(c, method)

@@ -2,17 +2,17 @@
 
   python experiments/few_shot.py --config=configs/blender.py:lego_8view_cpu --workdir=DIR
 
-Trains the vanilla-NeRF baseline (`defaults.as_nerf_baseline`: the Hi stage
-alone, stratified samples, no regulariser) and HALO (lo -> ray -> hi), each
-for `config.budget_s` seconds of training (held-out evaluations for the curves
-are not counted), evaluates both on the same held-out views and writes
+Trains each of --methods (default: nerf_tuned, the Hi stage alone with
+stratified samples and no regulariser, and HALO: lo -> ray -> hi; any name in
+halo_jax.methods.METHODS, e.g. nerf_paper, freenerf, halo+freenerf) for
+`config.budget_s` seconds of training (held-out evaluations for the curves
+are not counted), evaluates all on the same held-out views and writes
 DIR/results.json, DIR/results.md and DIR/psnr_vs_time.png. With
---all_views_reference it also trains NeRF on every training view for the
-same budget (the upper reference). A killed run, launched again with the same
+--all_views_reference it also trains nerf_tuned on every training view for
+the same budget (the upper reference). A killed run, launched again with the same
 flags, resumes each method from its last checkpoint (finished stages are not
 retrained: their final states are in DIR/<method>).
 """
-import copy
 import json
 import os
 
@@ -23,7 +23,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # pylint: disable=g-import-not-at-top
 from ml_collections import config_flags
 
-from halo_jax import datasets, defaults, stages
+from halo_jax import datasets, methods, pipeline
 
 FLAGS = flags.FLAGS
 config_flags.DEFINE_config_file("config", None, "HALO config (path[:variant]).",
@@ -31,8 +31,9 @@ config_flags.DEFINE_config_file("config", None, "HALO config (path[:variant]).",
 flags.DEFINE_string("workdir", None, "Output folder.")
 flags.DEFINE_bool("all_views_reference", False, "Also train NeRF on all training views.")
 flags.DEFINE_integer("curve_points", 8, "Held-out evaluations per method for the curve.")
-flags.DEFINE_list("methods", None, "Train only these methods (nerf, halo, nerf_all_views); "
-                  "results of the others already in DIR/results.json are kept.")
+flags.DEFINE_list("methods", ["nerf_tuned", "halo"],
+                  "Methods to train (names in halo_jax.methods.METHODS); results of others "
+                  "already in DIR/results.json are kept.")
 flags.mark_flags_as_required(["config", "workdir"])
 
 
@@ -44,8 +45,8 @@ def read_curve(workdir):
 
 
 def run_method(config, workdir, dataset):
-  infos = stages.run(config, workdir, dataset)
-  last = infos[stages.parse_stages(config.stages)[-1]]
+  infos = pipeline.run(config, workdir, dataset)
+  last = infos[config.final_stage]
   return {"psnr": last["eval"]["psnr"], "ssim": last["eval"]["ssim"],
           "lpips": last["eval"].get("lpips", float("nan")),
           **({"flicker": last["eval"]["flicker"]} if "flicker" in last["eval"] else {}),
@@ -56,16 +57,16 @@ def run_method(config, workdir, dataset):
           "curve": read_curve(workdir)}
 
 
-def methods(config, all_views):
-  halo = copy.deepcopy(config)
-  nerf = defaults.as_nerf_baseline(copy.deepcopy(config))
-  out = {"nerf": nerf, "halo": halo}
+def method_configs(config, names, all_views):
+  """{method: its config on this scene} (halo_jax.methods), plus
+  nerf_tuned on every training view with all_views."""
+  out = {name: methods.apply(config, name) for name in names}
   if all_views:
-    ref = copy.deepcopy(nerf)
+    ref = methods.apply(config, "nerf_tuned")
     ref.data.train_views = "all"
-    out["nerf_all_views"] = ref
+    out["nerf_tuned_all_views"] = ref
   for c in out.values():
-    for name in stages.ORDER:
+    for name in pipeline.stage_names(c):
       c[name].eval_every_s = c.budget_s / max(FLAGS.curve_points, 1) if c.budget_s else 0.0
   return out
 
@@ -104,13 +105,11 @@ def main(argv):
   os.makedirs(FLAGS.workdir, exist_ok=True)
   results_path = os.path.join(FLAGS.workdir, "results.json")
   results = {}
-  if FLAGS.methods and os.path.exists(results_path):
+  if os.path.exists(results_path):
     with open(results_path) as f:
       results = json.load(f)
   n_test = 0
-  for name, cfg in methods(config, FLAGS.all_views_reference).items():
-    if FLAGS.methods and name not in FLAGS.methods:
-      continue
+  for name, cfg in method_configs(config, FLAGS.methods, FLAGS.all_views_reference).items():
     dataset = datasets.load(cfg.data, os.path.join(FLAGS.workdir, name))
     n_test = len(dataset.test.names)
     results[name] = run_method(cfg, os.path.join(FLAGS.workdir, name), dataset)

@@ -18,8 +18,8 @@ import os
 from absl import app, flags, logging
 from ml_collections import config_flags
 
-from halo_jax import datasets, models, plots, stages, tuning
-from halo_jax.stages import nerf
+from halo_jax import datasets, pipeline, plots, stages, tuning
+from halo_jax.stages import radiance
 
 FLAGS = flags.FLAGS
 config_flags.DEFINE_config_file("config", None, "Base config (path[:variant]).",
@@ -77,14 +77,14 @@ def label(point):
 def run_point(config, point, workdir, dataset, with_criterion):
   c = apply(config, point)
   wd = os.path.join(workdir, label(point))
-  infos = stages.run(c, wd, dataset)
-  last = infos[stages.parse_stages(c.stages)[-1]]
+  infos = pipeline.run(c, wd, dataset)
+  last = infos.get(c.final_stage) or infos[pipeline.parse_stages(c.stages, c)[-1]]
   ev = last.get("eval", {})
   row = {"point": {f: v for f, v in point}, "label": label(point),
          "psnr": ev.get("psnr"), "ssim": ev.get("ssim"), "lpips": ev.get("lpips"),
          "wall_s": sum(i["wall_s"] for i in infos.values()), "criterion": None}
   if with_criterion and "lo" in infos:
-    lo = stages.load(wd, "lo", nerf.init_params(models.nerf_from_config(c, "lo"), c.seed))
+    lo = stages.load(wd, "lo", radiance.init_params(c, "lo", dataset))
     row["criterion"] = tuning.lo_criterion(lo, dataset, c.tune, c.eval.chunk)["criterion"]
   return row
 

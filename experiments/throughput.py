@@ -19,8 +19,9 @@ import jax.numpy as jnp
 import numpy as np
 from ml_collections import config_flags
 
-from halo_jax import camera, defaults, models
-from halo_jax.stages import field, loop, nerf, ray
+from halo_jax import camera, geometry, models, ray_fields
+from halo_jax import methods, raycast
+from halo_jax.stages import loop, radiance, ray
 
 FLAGS = flags.FLAGS
 config_flags.DEFINE_config_file("config", "configs/default.py", "Config (path[:variant]).")
@@ -105,7 +106,9 @@ def main(argv):
   n_data = 80000
   o, d = _rays(n_data)
   rgb = np.random.default_rng(0).uniform(size=(n_data, 3)).astype(np.float32)
-  base = {"origins": o, "dirs": d, "rgb": rgb, "crop_idx": np.arange(n_data, dtype=np.int32)}
+  index = {"crop_idx": np.arange(n_data, dtype=np.int32), "crop_pix": np.arange(64, dtype=np.int32),
+           "view_pixels": np.full((), n_data, np.int32)}
+  base = {"origins": o, "dirs": d, "rgb": rgb, "index": index}
   peak = matmul_peak(FLAGS.peak_n)  # measured again at the end; the larger is the peak
   results = {"peak_gflops": peak, "device": str(jax.devices()[0]), "steps": {}}
 
@@ -117,36 +120,39 @@ def main(argv):
     if cfg.sampler.kind == "depth_guided":
       guide_model = guide[0]
       data["guide"] = guide[1]
-    if cfg.empty.weight > 0:
+    if "empty" in cfg and cfg.empty.weight > 0:
       data["empty"] = {"origins": o, "dirs": d, "acc": np.zeros(n_data, np.float32),
                        "idx": np.arange(n_data, dtype=np.int32)}
-    lf = functools.partial(nerf._loss_fn, model=model, cfg=cfg, near=near, far=far, white=True,
-                           guide_model=guide_model, radius=4.03)
+    lf = functools.partial(radiance.loss_fn, s=radiance.loss_settings(
+        cfg, model, near=near, far=far, white=True, radius=4.03, guide_model=guide_model))
     samples = cfg.sampler.num_samples + (cfg.sampler.num_coarse
-                                         if cfg.sampler.kind == "hierarchical" else 0)
-    r = step_throughput(lf, cfg, nerf.init_params(model, 0), jax.device_put(data),
-                        cfg.batch_rays, samples)
+                                         if cfg.sampler.kind in ("hierarchical", "coarse_fine")
+                                         else 0)
+    params = {"nerf": models.init_nerf(model, cfg.model.kind, 0)}
+    r = step_throughput(lf, cfg, params, jax.device_put(data), cfg.batch_rays, samples)
     results["steps"][label] = r
 
   nerf_step("lo", c, "lo")
-  rf = models.ray_field_from_config(c.ray, near, far)
-  rf_params = ray.init_params(rf, 0)
+  rf = ray_fields.ray_field_from_config(c.ray, near, far)
+  rf_params = {"ray": ray_fields.init_ray_field(rf, 0)}
   rdata = {"train": {"origins": o, "dirs": d, "depth": np.full(n_data, 4.0, np.float32),
                      "acc": np.ones(n_data, np.float32)}}
   rdata["random"] = rdata["train"]
   n_rand = int(round(c.ray.batch_rays * c.ray.random_fraction))
-  lf = functools.partial(ray._loss_fn, model=rf, radius=4.03, far=far,
+  lf = functools.partial(ray.loss_fn, model=rf, guide_geometry=geometry.Geometry.SPHERE,
+                         radius=4.03, far=far,
                          n_train=c.ray.batch_rays - n_rand, n_random=n_rand)
   results["steps"]["ray"] = step_throughput(lf, c.ray, rf_params, jax.device_put(rdata),
                                             c.ray.batch_rays, 1)
-  nerf_step("hi", c, "hi", guide=(rf, rf_params))
-  nerf_step("nerf", defaults.as_nerf_baseline(c.copy_and_resolve_references()), "hi")
+  nerf_step("hi", c, "hi", guide=(rf, rf_params["ray"]))
+  nerf_step("nerf", methods.apply(c, "nerf_tuned"), "hi")
   # Held-out rendering with the Hi field (forward only).
   model = models.nerf_from_config(c, "hi")
-  ev = {b: field.make_eval_fn(model, c.hi.sampler, near=near, far=far, white_background=True,
-                              guide_model=rf, radius=4.03, block_rays=b)
+  ev = {b: raycast.make_eval_fn(model, c.hi.sampler, near=near, far=far, white_background=True,
+                                guide_model=rf, radius=4.03, block_rays=b)
         for b in (0, c.eval.block_rays)}
-  hp = nerf.init_params(model, 0)
+  hp = models.init_nerf(model, c.hi.model.kind, 0)
+  rf_params = rf_params["ray"]
   chunk = c.eval.chunk
   oc, dc = jnp.asarray(o[:chunk]), jnp.asarray(d[:chunk])
   dt = _time(ev[c.eval.block_rays], hp, rf_params, oc, dc)

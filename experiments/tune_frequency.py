@@ -18,7 +18,7 @@ import os
 from absl import app, flags, logging
 from ml_collections import config_flags
 
-from halo_jax import datasets, plots, tuning
+from halo_jax import datasets, pipeline, plots, tuning
 
 FLAGS = flags.FLAGS
 config_flags.DEFINE_config_file("config", None, "HALO config (path[:variant]).",
@@ -64,7 +64,7 @@ def main(argv):
   logging.set_verbosity(logging.WARNING)
   os.makedirs(FLAGS.workdir, exist_ok=True)
   dataset = datasets.load(FLAGS.config.data, FLAGS.workdir)
-  result = tuning.tune(FLAGS.config, FLAGS.workdir, dataset, FLAGS.full_grid)
+  result = tuning.tune(FLAGS.config, FLAGS.workdir, dataset, pipeline.run, FLAGS.full_grid)
   print(report(result, FLAGS.workdir))
 
 

@@ -15,9 +15,9 @@ def _model(width=256, depth=8, use_viewdirs=False):
 
 def _nerf_model(use_viewdirs):
   m = _model(use_viewdirs=use_viewdirs)
-  # 'nerf': static; 'deform': time-dependent (models.DeformNeRF, dynamic scenes).
-  m.kind = "nerf"
-  m.deform_width = 128   # deform only: the deformation MLP
+  m.kind = "nerf"                    # models.MODELS: 'nerf', 'deform' (times), 'epi' (light fields)
+  m.density_activation = "softplus"  # or 'relu' (the original NeRF)
+  m.deform_width = 128               # deform only: the deformation MLP
   m.deform_depth = 4
   return m
 
@@ -33,6 +33,10 @@ def _train(steps, batch_rays, lr_init, lr_final):
       microbatches=1,
       lr_init=lr_init,
       lr_final=lr_final,
+      # 0: the rate falls log-linearly from lr_init to lr_final over `steps`;
+      # > 0: lr_init * (lr_final / lr_init) ** (step / lr_decay_steps), a
+      # schedule that does not depend on the step cap (the original NeRF's)
+      lr_decay_steps=0,
       max_seconds=0.0,        # stop a stage after this much training time (0: no cap)
       checkpoint_every=1000,  # steps between checkpoints (and one at the end)
       log_every=100,          # steps between metrics.jsonl lines
@@ -41,28 +45,37 @@ def _train(steps, batch_rays, lr_init, lr_final):
   )
 
 
-def _nerf_stage(L, scale, use_viewdirs, steps, num_samples, sampler):
+def _radiance_stage(L, scale, use_viewdirs, steps, num_samples, sampler):
+  """A radiance-field stage (trainer 'radiance'): the fields every such stage reads."""
   cfg = ml_collections.ConfigDict(_train(steps, 3072, 5e-4, 1e-4))
-  # with_lo: prepend Lo-NeRF's P.E. to this stage's (Hi only; lets init_from_lo
-  # start Hi-NeRF as an exact copy of Lo-NeRF).
+  cfg.kind = "radiance"
   # time_L, time_scale: the time encoding of a dynamic (model.kind='deform') field.
-  cfg.encoding = ml_collections.ConfigDict(dict(L=L, scale=float(scale), with_lo=False,
-                                                time_L=0, time_scale=1.0))
+  cfg.encoding = ml_collections.ConfigDict(dict(L=L, scale=float(scale), time_L=0,
+                                                time_scale=1.0))
   cfg.model = _nerf_model(use_viewdirs)
   cfg.sampler = ml_collections.ConfigDict(dict(
-      kind=sampler,         # 'stratified' | 'hierarchical' | 'depth_guided' | 'joint'
+      kind=sampler,         # samplers.SAMPLERS: 'stratified', 'hierarchical', 'coarse_fine',
+                            # 'depth_guided', 'joint'
       num_samples=num_samples,
-      num_coarse=64,        # hierarchical: stratified samples of the coarse pass
-      coarse_weight=0.1,    # hierarchical: weight of the coarse pass's L_rec
+      num_coarse=64,        # hierarchical, coarse_fine: stratified samples of the first pass
+      coarse_weight=0.1,    # hierarchical, coarse_fine: weight of the first pass's L_rec
+      coarse_model=False,   # coarse_fine: the first pass has its own MLP (the original NeRF)
       window=0.3,           # depth_guided: r, half window as a fraction of far - near
       near_only=False,      # depth_guided: tighten only the near side (authors' code)
   ))
   cfg.density_noise = 1.0
-  # light fields (model.kind='epi'): composite training rays onto a random
-  # colour per ray, so partial opacity costs (the authors' light-field code)
-  cfg.random_background = False
   cfg.precrop_steps = 500
   cfg.precrop_frac = 0.5
+  cfg.one_image = False     # draw each step's rays from one random training view
+  return cfg
+
+
+def _hi_extras(cfg):
+  """The fields only the output stage reads: HALO's regularisers and sampler
+  options, and the baselines' (FreeNeRF's) terms, all off here."""
+  # with_lo: prepend Lo-NeRF's P.E. to this stage's (lets init_from_lo start
+  # Hi-NeRF as an exact copy of Lo-NeRF).
+  cfg.encoding.with_lo = False
   cfg.empty = ml_collections.ConfigDict(dict(
       weight=0.0,           # lambda of L_empty (0 leaves the loss and the Lo bank out)
       tau=0.01,             # Lo-NeRF opacity below which a random ray counts as empty
@@ -71,53 +84,64 @@ def _nerf_stage(L, scale, use_viewdirs, steps, num_samples, sampler):
       bank_rays=65536,      # random rays rendered once by the frozen Lo-NeRF
       start_step=0,
   ))
-  # model.kind='epi' (two-plane light fields): Gaussian Fourier features of
-  # the EPI point (s', t', theta) and the view (u, v). SPEC sec. 4's counts;
-  # its stds are the authors', whose features are sin(f x) with s, t in
-  # pixels / 1024 (the image spans 1): their st std 64 is our 5.09
-  # (encoding.fourier_std_from_angular(64, 1)). Their theta std 8 over their
-  # ~1 rad range makes ~0.8 cycles across it; ours, 8 over the knights'
-  # 0.19 rad, ~1. Their (u, v) std 16 over camera positions / 1024 (the
-  # knights' grid spans 0.135) is our 0.17, near linear across the grid, and
-  # their colour reads only its lowest sin/cos pair: we give the colour the
-  # raw (u, v) (uv_features=0; the input itself always reaches the colour).
-  cfg.fourier = ml_collections.ConfigDict(dict(
-      st_std=5.09, st_features=10, theta_std=8.0, theta_features=5, uv_std=1.0,
-      uv_features=0, seed=0))
   # sampler.kind='joint': a low-frequency ray field trained with this stage
   # (L_consist) places the samples in tau_ray +- alpha, alpha falling linearly
   # from 1 to alpha_final over alpha_steps (SPEC sec. 4).
-  cfg.joint = ml_collections.ConfigDict(dict(
-      consist_weight=1.0, alpha_final=0.5, alpha_steps=20000,
-      # light fields (model.kind='epi'): L_consist's tau_nerf, 'expected' (the
-      # paper) or 'max_weight'; the 3D joint scheme follows Lo's depth instead
-      target="expected",
-      # light fields: the share of the samples stratified over the whole
-      # range instead of the window (0: the paper's formula; the authors'
-      # code uses 0.5), so density outside the window can still form
-      full_range=0.0,
-      # light fields: rays per step drawn between the training cameras (uv in
-      # their box, st anywhere) on which the ray field alone follows the
-      # radiance field through L_consist (0: none, the paper; the authors'
-      # code uses 512 with batches of 3072)
-      random_rays=0,
-      # light fields: weight of the ray field's own colour loss (0: no colour
-      # head, the paper). Above 0 the ray field gets a colour head trained on
-      # the training pixels and, on the random rays, on the radiance field's
-      # colour (held fixed): the authors' light-field code, weight 1
-      color_weight=0.0,
-      # light fields: L_consist's weight into the radiance field (its tau
-      # pulled towards the ray field's, held fixed). The paper's formula has
-      # no stop-gradient; the authors' code trains only the ray field (0)
-      nerf_consist_weight=0.0,
-      # the ray field's Fourier features of (u, v, s, t); uv_std, where not
-      # 0, replaces std for (u, v)
-      std=1.0, uv_std=0.0, num_features=16, seed=0,
-      model=_model(width=128, depth=4)))
-  cfg.joint.model.skips = ()
+  cfg.joint = ml_collections.ConfigDict(dict(consist_weight=1.0, alpha_final=0.5,
+                                             alpha_steps=20000))
   # Start from Lo-NeRF's weights: every layer of equal shape (the authors'
   # option, input layers excluded), or exactly Lo's function with encoding.with_lo.
   cfg.init_from_lo = False
+  # FreeNeRF (methods/freenerf.py): the P.E. bands open linearly until
+  # end * steps (0: no mask), and the occlusion loss on the density of the
+  # num_near samples nearest the camera (weight 0: off).
+  cfg.freq_reg = ml_collections.ConfigDict(dict(end=0.0))
+  cfg.occlusion = ml_collections.ConfigDict(dict(weight=0.0, num_near=10))
+  return cfg
+
+
+def light_field_stage(cfg):
+  """Turns a radiance stage into the two-plane light-field stage (trainer
+  'light_field', model 'epi') and adds the fields only it reads."""
+  cfg.kind = "light_field"
+  cfg.model.kind = "epi"
+  # Composite training rays onto a random colour per ray, so partial opacity
+  # costs (the authors' light-field code).
+  cfg.random_background = False
+  # Gaussian Fourier features of the EPI point (s', t', theta) and the view
+  # (u, v): SPEC sec. 4's counts. Its stds are the authors', whose features
+  # are sin(f x) with s, t in pixels / 1024 (the image spans 1): their st std
+  # 64 is our 5.09 (encoding.fourier_std_from_angular(64, 1)); their theta
+  # std 8 over their ~1 rad range makes ~0.8 cycles across it, ours over the
+  # knights' 0.19 rad ~1. The colour gets the raw (u, v) (uv_features=0; the
+  # input itself always reaches the colour), as the authors' colour reads
+  # only its lowest sin/cos pair.
+  cfg.fourier = ml_collections.ConfigDict(dict(
+      st_std=5.09, st_features=10, theta_std=8.0, theta_features=5, uv_std=1.0,
+      uv_features=0, seed=0))
+  cfg.joint.update(
+      # L_consist's tau_nerf: 'expected' (the paper) or 'max_weight'
+      target="expected",
+      # share of the samples stratified over the whole range instead of the
+      # window (0: the paper's formula; the authors' code uses 0.5), so
+      # density outside the window can still form
+      full_range=0.0,
+      # rays per step drawn between the training cameras (uv in their box, st
+      # anywhere) on which the ray field alone follows the radiance field
+      # (0: none, the paper; the authors' code uses 512 with batches of 3072)
+      random_rays=0,
+      # weight of the ray field's own colour loss (0: no colour head, the
+      # paper); above 0 it is trained on the pixels and, on the random rays,
+      # on the radiance field's colour (the authors' code, weight 1)
+      color_weight=0.0,
+      # L_consist's weight into the radiance field (its tau pulled towards the
+      # ray field's). The paper's formula has no stop-gradient; the authors'
+      # code trains only the ray field (0)
+      nerf_consist_weight=0.0,
+      # the ray field's Fourier features of (u, v, s, t); uv_std, where not 0,
+      # replaces std for (u, v)
+      std=1.0, uv_std=0.0, num_features=16, seed=0, model=_model(width=128, depth=4))
+  cfg.joint.model.skips = ()
   return cfg
 
 
@@ -134,7 +158,11 @@ def base_config() -> ml_collections.ConfigDict:
   """All fields, set to the paper's full-resolution Blender protocol."""
   c = ml_collections.ConfigDict()
   c.seed = 0
-  c.stages = "lo,ray,hi"
+  # The method (halo_jax.methods) that made this config, for the record; the
+  # pipeline reads only the stage sections.
+  c.method = "halo"
+  c.stages = "lo,ray,hi"      # the stages to train now (the ones they need are restored)
+  c.final_stage = "hi"        # the stage whose field the method outputs
   # Training-time budget in seconds for the whole pipeline (0: none). When set,
   # each needed stage gets max_seconds = budget_s * its share (normalised over
   # the stages the run needs), so NeRF (hi alone) and HALO get the same time.
@@ -157,10 +185,10 @@ def base_config() -> ml_collections.ConfigDict:
       disparity_px=(-2.0, 1.0),
       grid_signs=(-1.0, -1.0),
   ))
-  c.lo = _nerf_stage(L=5, scale=32, use_viewdirs=False, steps=8000, num_samples=128,
-                     sampler="stratified")
-  c.hi = _nerf_stage(L=10, scale=1, use_viewdirs=True, steps=80000, num_samples=128,
-                     sampler="depth_guided")
+  c.lo = _radiance_stage(L=5, scale=32, use_viewdirs=False, steps=8000, num_samples=128,
+                         sampler="stratified")
+  c.hi = _hi_extras(_radiance_stage(L=10, scale=1, use_viewdirs=True, steps=80000,
+                                    num_samples=128, sampler="depth_guided"))
   c.hi.lr_final = 5e-5
   c.hi.precrop_steps = 0
   c.hi.empty.weight = 0.1
@@ -185,6 +213,7 @@ def base_config() -> ml_collections.ConfigDict:
       lo_steps=0,            # step cap of each short Lo-NeRF (0: lo.steps)
   ))
   c.ray = ml_collections.ConfigDict(_train(24000, 4096, 5e-4, 5e-6))
+  c.ray.kind = "ray_field"
   c.ray.encoding = ml_collections.ConfigDict(dict(L=10, scale=32.0))
   c.ray.model = _model()
   c.ray.radius = 0.0              # sphere of the ray parametrisation (0: camera radius)
@@ -192,13 +221,13 @@ def base_config() -> ml_collections.ConfigDict:
   c.ray.random_fraction = 0.5     # share of each batch drawn from random hemisphere rays
   c.ray.bank_rays = 262144        # random rays rendered once by the frozen Lo-NeRF
   c.ray.lo_samples = 0            # samples for the Lo-NeRF targets (0: Lo's own count)
-  # The vanilla-NeRF baseline (as_nerf_baseline): stratified samples per ray.
+  # The NeRF baselines (methods/): stratified samples per ray of nerf_tuned.
   c.baseline = ml_collections.ConfigDict(dict(num_samples=64))
   c.eval = ml_collections.ConfigDict(dict(
       chunk=4096,          # rays per jitted rendering call
       # Render each chunk in blocks of this many rays, one after another (0: the
       # whole chunk at once, for GPUs). On CPU blocks that fit in cache are
-      # several times faster (stages.field.in_blocks).
+      # several times faster (raycast.in_blocks).
       block_rays=0,
       curve_views=5,       # held-out views used for the PSNR curve (final eval uses all)
       save_images=True,
@@ -255,22 +284,4 @@ def cpu_sized(c: ml_collections.ConfigDict, budget_s: float) -> ml_collections.C
               log_every=50)
   for name in ("lo", "hi"):
     c[name].model.update(width=128, depth=4, skips=(), use_viewdirs=False)
-  return c
-
-
-def as_nerf_baseline(c: ml_collections.ConfigDict, num_samples: int = 0) -> ml_collections.ConfigDict:
-  """The vanilla-NeRF baseline: the Hi stage alone, stratified samples
-  (num_samples, or c.baseline.num_samples when 0), no regulariser."""
-  c.stages = "hi"
-  c.hi.sampler.kind = "stratified"
-  hi_samples = c.hi.sampler.num_samples
-  c.hi.sampler.num_samples = num_samples or c.baseline.num_samples
-  # Keep the samples in each micro-batch (its cache footprint) as Hi-NeRF's.
-  parts = c.hi.microbatches * c.hi.sampler.num_samples // hi_samples
-  if parts > 1 and c.hi.batch_rays % parts == 0:
-    c.hi.microbatches = parts
-  c.hi.empty.weight = 0.0
-  c.hi.init_from_lo = False
-  c.hi.encoding.with_lo = False
-  c.hi.precrop_steps = c.lo.precrop_steps
   return c

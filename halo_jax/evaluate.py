@@ -7,7 +7,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from halo_jax import metrics
-from halo_jax.stages import field
+from halo_jax import raycast
 
 
 def depth_to_image(depth, near, far):
@@ -24,7 +24,7 @@ def render_views(eval_fn, views, chunk, indices=None):
   if indices is not None:
     o, d = o[indices], d[indices]
     t = None if t is None else t[indices]
-  return field.render_chunked(eval_fn, o, d, chunk, t)
+  return raycast.render_chunked(eval_fn, o, d, chunk, t)
 
 
 def score(rgb, target, with_lpips=False):
@@ -56,7 +56,7 @@ def flicker(eval_fn, views, chunk, num_frames, out_dir=None):
   o = np.broadcast_to(o[:1], (num_frames, *o.shape[1:]))
   d = np.broadcast_to(d[:1], (num_frames, *d.shape[1:]))
   t = np.broadcast_to(times[:, None, None, None], (*o.shape[:3], 1))
-  frames = field.render_chunked(eval_fn, o, d, chunk, t)["rgb"]
+  frames = raycast.render_chunked(eval_fn, o, d, chunk, t)["rgb"]
   if out_dir:
     os.makedirs(out_dir, exist_ok=True)
     strip = (np.clip(np.concatenate(list(frames), 1), 0, 1) * 255).round().astype(np.uint8)

@@ -25,3 +25,20 @@ def empty_space(acc, lo_acc, tau: float = 0.01):
   """
   empty = (lo_acc < tau).astype(acc.dtype)
   return (acc * empty).sum() / jnp.maximum(empty.sum(), 1.0)
+
+
+def consistency(tau_ray, tau_target):
+  """L_consist = mean |tau_ray - tau_target|^2 (light fields: the ray field's
+  EPI depth against the radiance field's). [...] -> scalar."""
+  return jnp.mean((tau_ray - tau_target) ** 2)
+
+
+def occlusion(sigma, num_near: int):
+  """FreeNeRF's occlusion loss: mean density of the `num_near` samples nearest
+  the camera, sigma [..., N] ordered from near to far -> scalar.
+
+  Few views explain a pixel cheaply with density right in front of its
+  camera ("floaters", walls); this term charges for it. FreeNeRF's optional
+  prior that also masks more samples of white or black pixels is left out.
+  """
+  return jnp.mean(sigma[..., :num_near])

@@ -3,14 +3,14 @@
   python -m halo_jax.main --config=configs/blender.py:lego_8view \
       --workdir=DIR --config.data.root=PATH [--config.stages=lo,ray,hi]
 
-This file is kept short: the logic lives in `halo_jax.stages`.
+This file is kept short: the logic lives in `halo_jax.pipeline`.
 """
 import json
 
 from absl import app, flags, logging
 from ml_collections import config_flags
 
-from halo_jax import parallel, stages
+from halo_jax import parallel, pipeline
 
 FLAGS = flags.FLAGS
 config_flags.DEFINE_config_file("config", None, "Config file (path[:variant]).",
@@ -23,7 +23,7 @@ def main(argv):
   del argv
   logging.set_verbosity(logging.WARNING)  # orbax logs every save at INFO
   parallel.initialize(FLAGS.config.parallel)
-  infos = stages.run(FLAGS.config, FLAGS.workdir)
+  infos = pipeline.run(FLAGS.config, FLAGS.workdir)
   print(f"{'stage':6} {'steps':>6} {'train s':>8} {'PSNR':>7} {'SSIM':>6} {'LPIPS':>6}")
   for name, info in infos.items():
     ev = info.get("eval", {})

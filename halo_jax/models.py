@@ -1,11 +1,16 @@
-"""Flax models: the NeRF MLP and the ray field (a light-field network)."""
-from typing import Sequence
+"""Flax models: the NeRF MLPs and the ray fields (light-field networks), and
+the registry that builds a stage's radiance field from its config."""
+import dataclasses
+from typing import Callable, Sequence
 
 import flax.linen as nn
+import jax
 import jax.numpy as jnp
 import numpy as np
 
-from halo_jax import encoding, rng
+from halo_jax import geometry
+
+from halo_jax import encoding, registry, rng
 
 
 def _rows(x):
@@ -15,15 +20,45 @@ def _rows(x):
   return x.reshape(-1, x.shape[-1])
 
 
-def _density(h, noise_key, noise, bias, shape):
+DENSITY_ACTIVATIONS = {"softplus": nn.softplus, "relu": nn.relu}
+
+
+def _density(h, noise_key, noise, bias, shape, activation="softplus"):
   """The density head of a radiance field (call inside a compact module):
-  softplus(Dense(h) + noise + bias) for rows h [N, W] of points of `shape`
+  act(Dense(h) + noise + bias) for rows h [N, W] of points of `shape`
   (N = prod(shape)); returns [N]. Noise only when a key (one, or per ray:
-  halo_jax.rng, drawn over `shape` so each ray draws its own) is given."""
+  halo_jax.rng, drawn over `shape` so each ray draws its own) is given.
+  act: 'softplus' (smooth, never stuck at 0) or 'relu' (the original NeRF)."""
   raw = nn.Dense(1, name="density")(h)[..., 0]
   if noise_key is not None and noise > 0:
     raw = raw + noise * rng.normal(noise_key, shape).reshape(raw.shape)
-  return nn.softplus(raw + bias)
+  return DENSITY_ACTIVATIONS[activation](raw + bias)
+
+
+def band_weights(band_fraction, num_bands: int, dims: int):
+  """FreeNeRF's frequency mask over a P.E. of `num_bands` (L) bands of `dims`
+  coordinates ordered (band, dim).
+
+  With p = min(L * band_fraction + 1, L), band k has weight clip(p - k, 0, 1):
+  at fraction 0 only the lowest band is visible, bands open one after
+  another as the fraction grows, and all are open from fraction 1 - 1/L on.
+  Returns [L * dims]; band_fraction may be traced.
+  """
+  k = jnp.arange(num_bands, dtype=jnp.float32)
+  frac = jnp.asarray(band_fraction, jnp.float32)
+  p = jnp.minimum(num_bands * frac + 1.0, float(num_bands))
+  return jnp.repeat(jnp.clip(p - k, 0.0, 1.0), dims)
+
+
+def _masked_pe(x, freqs, scale, band_fraction):
+  """positional_encoding(x) with FreeNeRF's mask on its sin and cos halves
+  (no mask when band_fraction is None)."""
+  pe = encoding.positional_encoding(x, freqs, scale)
+  if band_fraction is None:
+    return pe
+  w = band_weights(band_fraction, freqs, x.shape[-1])
+  # the input itself (the first D features) stays visible, as in FreeNeRF
+  return pe * jnp.concatenate([jnp.ones(x.shape[-1]), w, w])
 
 
 class MLP(nn.Module):
@@ -54,7 +89,8 @@ class NeRFMLP(nn.Module):
     use_viewdirs: condition colour on the view direction (Hi-NeRF); Lo-NeRF
       leaves it out so its colour is view-independent.
     dir_freqs: L of the direction encoding.
-    density_bias: softplus(raw + bias); -1 starts the field nearly empty.
+    density_bias: act(raw + bias); -1 starts a softplus field nearly empty.
+    density_activation: 'softplus' or 'relu' (DENSITY_ACTIVATIONS).
   """
   pos_freqs: int = 10
   pos_scale: float = 1.0
@@ -66,25 +102,30 @@ class NeRFMLP(nn.Module):
   use_viewdirs: bool = True
   dir_freqs: int = 4
   density_bias: float = -1.0
+  density_activation: str = "softplus"
 
   @nn.compact
-  def __call__(self, points, viewdirs=None, density_noise_key=None, density_noise=0.0):
-    """Args: points [..., 3]; viewdirs [..., 3] unit or None.
+  def __call__(self, points, viewdirs=None, density_noise_key=None, density_noise=0.0,
+               band_fraction=None):
+    """Args: points [..., 3]; viewdirs [..., 3] unit or None; band_fraction:
+    FreeNeRF's mask position in [0, 1] over the point and direction
+    encodings (band_weights), or None for the full encodings.
 
     Returns: sigma [...] >= 0 and rgb [..., 3] in (0, 1).
     """
     shape = points.shape[:-1]
     points = _rows(points)
-    x = encoding.positional_encoding(points, self.pos_freqs, self.pos_scale)
+    x = _masked_pe(points, self.pos_freqs, self.pos_scale, band_fraction)
     if self.base_freqs > 0:
       x = jnp.concatenate(
           [encoding.positional_encoding(points, self.base_freqs, self.base_scale), x], -1)
     h = MLP(self.width, self.depth, tuple(self.skips), name="trunk")(x)
-    sigma = _density(h, density_noise_key, density_noise, self.density_bias, shape)
+    sigma = _density(h, density_noise_key, density_noise, self.density_bias, shape,
+                     self.density_activation)
     if self.use_viewdirs:
       feat = nn.Dense(self.width, name="bottleneck")(h)
       viewdirs = _rows(jnp.broadcast_to(viewdirs, (*shape, viewdirs.shape[-1])))
-      d = encoding.positional_encoding(viewdirs, self.dir_freqs, 1.0)
+      d = _masked_pe(viewdirs, self.dir_freqs, 1.0, band_fraction)
       h = nn.relu(nn.Dense(self.width // 2, name="view")(jnp.concatenate([feat, d], -1)))
     rgb = nn.sigmoid(nn.Dense(3, name="rgb")(h))
     return sigma.reshape(shape), rgb.reshape(*shape, 3)
@@ -121,6 +162,7 @@ class DeformNeRF(nn.Module):
   density_bias: float = -1.0
   deform_width: int = 128
   deform_depth: int = 4
+  density_activation: str = "softplus"
 
   @nn.compact
   def __call__(self, points, viewdirs=None, density_noise_key=None, density_noise=0.0,
@@ -143,37 +185,9 @@ class DeformNeRF(nn.Module):
     offset = nn.Dense(3, kernel_init=nn.initializers.zeros, name="offset")(h).reshape(*shape, 3)
     canonical = NeRFMLP(self.pos_freqs, self.pos_scale, self.base_freqs, self.base_scale,
                         self.width, self.depth, tuple(self.skips), self.use_viewdirs,
-                        self.dir_freqs, self.density_bias, name="canonical")
+                        self.dir_freqs, self.density_bias, self.density_activation,
+                        name="canonical")
     return canonical(points + offset, viewdirs, density_noise_key, density_noise)
-
-
-class RayField(nn.Module):
-  """Light-field network: a ray (entry point on a sphere, direction) -> depth, opacity.
-
-  Depth is measured along the ray from its sphere entry point and lies in
-  [near, far] through `sigmoid * 1.002 - 0.001`, as in the authors' code.
-  """
-  freqs: int = 10
-  scale: float = 32.0
-  width: int = 256
-  depth: int = 8
-  skips: Sequence[int] = (4,)
-  near: float = 2.0
-  far: float = 6.0
-
-  @nn.compact
-  def __call__(self, entry_points, directions):
-    """Args: entry_points [..., 3], directions [..., 3]. Returns depth [...], acc [...]."""
-    shape = entry_points.shape[:-1]
-    x = jnp.concatenate([
-        encoding.positional_encoding(_rows(entry_points), self.freqs, self.scale),
-        encoding.positional_encoding(_rows(directions), self.freqs, self.scale)], -1)
-    h = MLP(self.width, self.depth, tuple(self.skips), name="trunk")(x)
-    out = nn.Dense(2, name="heads")(h).reshape(*shape, 2)
-    unit = nn.sigmoid(out[..., 0]) * 1.002 - 0.001
-    depth = self.near + (self.far - self.near) * unit
-    acc = nn.sigmoid(out[..., 1])
-    return depth, acc
 
 
 class EPINeRF(nn.Module):
@@ -185,12 +199,12 @@ class EPINeRF(nn.Module):
   theta with `theta_std`, u, v with `uv_std` (counts `*_features`, fixed
   matrices from `seed`).
   """
-  st_std: float = 64.0
+  st_std: float = 5.09
   st_features: int = 10
   theta_std: float = 8.0
   theta_features: int = 5
   uv_std: float = 1.0
-  uv_features: int = 4
+  uv_features: int = 0
   seed: int = 0
   width: int = 256
   depth: int = 8
@@ -221,80 +235,24 @@ class EPINeRF(nn.Module):
     return sigma.reshape(shape), rgb.reshape(*shape, 3)
 
 
-def ray_field_matrix(seed: int, num_features: int, std: float, uv_std: float = 0.0):
-  """EPIRayField's frequency matrix B [4 (u, v, s, t), F]: N(0, std^2), the
-  (u, v) rows N(0, uv_std^2) where uv_std is not 0 (the same draw, rescaled)."""
-  matrix = encoding.fourier_matrix(seed + 3, 4, num_features, std)
-  if uv_std:
-    matrix = matrix * np.array([[uv_std / std]] * 2 + [[1.0]] * 2, np.float32)
-  return matrix
-
-
-class EPIRayField(nn.Module):
-  """Two-plane ray field: (u, v, s, t) -> tau_ray in [0, 1], the ray's depth
-  as a fraction of the EPI angle range (tau = (theta - theta_n) / (theta_f - theta_n)).
-
-  Gaussian Fourier features of std `std`, for (u, v) `uv_std` where it is
-  not 0: low across the camera plane, where held-out views lie (the knights
-  configs: the authors' 0.17 for (u, v), 5.09 for (s, t)).
-
-  With `color`, a second head on the same trunk predicts the ray's colour
-  (one hidden layer that also reads the raw (u, v), as the radiance field's
-  colour does): the authors' light-field ray field has one, trained on the
-  pixels, so the trunk the angle head reads also learns the image.
-  """
-  std: float = 1.0
-  num_features: int = 16
-  seed: int = 0
-  width: int = 128
-  depth: int = 4
-  skips: Sequence[int] = ()
-  uv_std: float = 0.0
-  color: bool = False
-
-  @nn.compact
-  def __call__(self, rays):
-    """Args: rays [..., 4] (u, v, s, t). Returns tau [...], or with `color`
-    (tau [...], rgb [..., 3])."""
-    rows = _rows(rays)
-    matrix = ray_field_matrix(self.seed, self.num_features, self.std, self.uv_std)
-    x = encoding.gaussian_fourier_features(rows, matrix)
-    h = MLP(self.width, self.depth, tuple(self.skips), name="trunk")(x)
-    tau = nn.sigmoid(nn.Dense(1, name="head")(h)[..., 0]) * 1.002 - 0.001
-    tau = tau.reshape(rays.shape[:-1])
-    if not self.color:
-      return tau
-    c = nn.relu(nn.Dense(self.width, name="color_hidden")(
-        jnp.concatenate([h, rows[:, :2]], -1)))
-    rgb = nn.sigmoid(nn.Dense(3, name="color")(c)) * 1.002 - 0.001
-    return tau, rgb.reshape(*rays.shape[:-1], 3)
-
-
-def nerf_from_config(config, name: str):
-  """The radiance field of stage `name` ('lo' or 'hi') of a run config:
-  NeRFMLP, or DeformNeRF where config[name].model.kind == 'deform'.
-
-  With config[name].encoding.with_lo, Lo-NeRF's P.E. (config.lo.encoding) is
-  prepended to the stage's own.
-  """
+def _nerf_kwargs(config, name):
   cfg, m = config[name], config[name].model
   base = config.lo.encoding if cfg.encoding.get("with_lo", False) else None
-  common = dict(pos_freqs=cfg.encoding.L, pos_scale=cfg.encoding.scale,
-                base_freqs=base.L if base else 0, base_scale=base.scale if base else 1.0,
-                width=m.width, depth=m.depth, skips=tuple(m.skips),
-                use_viewdirs=m.use_viewdirs, dir_freqs=m.dir_freqs,
-                density_bias=m.density_bias)
-  kind = m.get("kind", "nerf")
-  if kind == "nerf":
-    return NeRFMLP(**common)
-  if kind == "epi":
-    f = cfg.fourier
-    return EPINeRF(st_std=f.st_std, st_features=f.st_features, theta_std=f.theta_std,
-                   theta_features=f.theta_features, uv_std=f.uv_std,
-                   uv_features=f.uv_features, seed=f.seed, width=m.width, depth=m.depth,
-                   skips=tuple(m.skips), density_bias=m.density_bias)
-  if kind != "deform":
-    raise ValueError(f"{name}.model.kind={kind!r} is not one of 'nerf', 'deform', 'epi'")
+  return base, dict(pos_freqs=cfg.encoding.L, pos_scale=cfg.encoding.scale,
+                    base_freqs=base.L if base else 0, base_scale=base.scale if base else 1.0,
+                    width=m.width, depth=m.depth, skips=tuple(m.skips),
+                    use_viewdirs=m.use_viewdirs, dir_freqs=m.dir_freqs,
+                    density_bias=m.density_bias,
+                    density_activation=m.get("density_activation", "softplus"))
+
+
+def _static_nerf(config, name):
+  return NeRFMLP(**_nerf_kwargs(config, name)[1])
+
+
+def _deform_nerf(config, name):
+  base, common = _nerf_kwargs(config, name)
+  cfg, m = config[name], config[name].model
   return DeformNeRF(**common, time_freqs=cfg.encoding.time_L,
                     time_scale=cfg.encoding.time_scale,
                     base_time_freqs=base.time_L if base else 0,
@@ -302,22 +260,55 @@ def nerf_from_config(config, name: str):
                     deform_width=m.deform_width, deform_depth=m.deform_depth)
 
 
+def _epi_nerf(config, name):
+  cfg, m = config[name], config[name].model
+  f = cfg.fourier
+  return EPINeRF(st_std=f.st_std, st_features=f.st_features, theta_std=f.theta_std,
+                 theta_features=f.theta_features, uv_std=f.uv_std,
+                 uv_features=f.uv_features, seed=f.seed, width=m.width, depth=m.depth,
+                 skips=tuple(m.skips), density_bias=m.density_bias)
+
+
+@dataclasses.dataclass(frozen=True)
+class ModelSpec:
+  """A radiance-field kind (config `<stage>.model.kind`).
+
+  build: (config, stage name) -> Flax module.
+  dummy_inputs: the (points, view) arrays `init` is called with.
+  dynamic: the field takes a time input.
+  geometries: the ray geometries it can be rendered in.
+  """
+  build: Callable
+  dummy_inputs: Callable
+  dynamic: bool = False
+  geometries: frozenset = geometry.SPATIAL
+
+
+MODELS = registry.Registry[ModelSpec]("model")
+MODELS.register("nerf", ModelSpec(_static_nerf, lambda: (jnp.zeros((1, 3)), jnp.zeros((1, 3)))))
+MODELS.register("deform", ModelSpec(_deform_nerf,
+                                    lambda: (jnp.zeros((1, 3)), jnp.zeros((1, 3))), dynamic=True))
+MODELS.register("epi", ModelSpec(_epi_nerf, lambda: (jnp.zeros((1, 3)), jnp.zeros((1, 2))),
+                                 geometries=frozenset({geometry.Geometry.TWO_PLANE})))
+
+
+def nerf_from_config(config, name: str):
+  """The radiance field of stage `name` (config[name].model.kind in MODELS).
+
+  With config[name].encoding.with_lo, Lo-NeRF's P.E. (config.lo.encoding) is
+  prepended to the stage's own.
+  """
+  kind = config[name].model.get("kind", "nerf")
+  return MODELS.get(kind, f"{name}.model.kind").build(config, name)
+
+
+def init_nerf(model, kind: str, seed: int):
+  """Parameters of a radiance field of MODELS kind `kind` from PRNGKey(seed)."""
+  points, views = MODELS.get(kind).dummy_inputs()
+  extra = {"times": jnp.zeros((1, 1))} if MODELS.get(kind).dynamic else {}
+  return model.init(jax.random.PRNGKey(seed), points, views, **extra)["params"]
+
+
 def is_dynamic(config, name: str) -> bool:
   """Whether stage `name`'s field takes time as an input."""
-  return config[name].model.get("kind", "nerf") == "deform"
-
-
-def epi_ray_field_from_config(joint_cfg):
-  """EPIRayField of a stage's `joint` config."""
-  m = joint_cfg.model
-  return EPIRayField(std=joint_cfg.std, num_features=joint_cfg.num_features,
-                     seed=joint_cfg.seed, width=m.width, depth=m.depth, skips=tuple(m.skips),
-                     uv_std=joint_cfg.get("uv_std", 0.0),
-                     color=joint_cfg.get("color_weight", 0.0) > 0)
-
-
-def ray_field_from_config(cfg, near, far):
-  """RayField from the ray stage config."""
-  m = cfg.model
-  return RayField(freqs=cfg.encoding.L, scale=cfg.encoding.scale, width=m.width,
-                  depth=m.depth, skips=tuple(m.skips), near=near, far=far)
+  return MODELS.get(config[name].model.get("kind", "nerf"), f"{name}.model.kind").dynamic

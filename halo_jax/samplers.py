@@ -4,10 +4,49 @@ Every sampler returns sorted interval edges `t_edges` [..., N + 1]; the model
 is queried at the midpoints and `render.volume_render` composites the N
 intervals.
 """
+import dataclasses
+
 import jax
 import jax.numpy as jnp
 
-from halo_jax import rng
+from halo_jax import geometry, registry, rng
+
+
+@dataclasses.dataclass(frozen=True)
+class SamplerSpec:
+  """What a sampler kind (config `sampler.kind`) does and needs.
+
+  Attributes:
+    guided: samples fill a window around a ray field's depth.
+    importance: a second pass resamples the first pass's weights (inverse CDF).
+    merge_coarse: the second pass composites its samples together with the
+      first pass's (the original NeRF), not alone.
+    needs: stages whose finished states the sampler reads (a frozen ray
+      field; Lo-NeRF targets for a ray field trained alongside).
+    trains_guide: the ray field that guides it trains in the same stage.
+    geometries: the ray geometries it supports.
+    dynamic: whether it works on a time-dependent field.
+  """
+  guided: bool = False
+  importance: bool = False
+  merge_coarse: bool = False
+  needs: tuple = ()
+  trains_guide: bool = False
+  geometries: frozenset = geometry.ALL
+  dynamic: bool = True
+
+
+SAMPLERS = registry.Registry[SamplerSpec]("sampler")
+SAMPLERS.register("stratified", SamplerSpec())
+SAMPLERS.register("hierarchical", SamplerSpec(importance=True, geometries=geometry.SPATIAL))
+# NeRF's coarse + fine: the fine pass composites coarse and fine samples together.
+SAMPLERS.register("coarse_fine", SamplerSpec(importance=True, merge_coarse=True,
+                                             geometries=geometry.SPATIAL))
+SAMPLERS.register("depth_guided", SamplerSpec(guided=True, needs=("ray",),
+                                              geometries=geometry.SPATIAL, dynamic=False))
+# A ray field trained with the stage: in 3D it follows Lo-NeRF's depth; on a
+# light field, the radiance field's own.
+SAMPLERS.register("joint", SamplerSpec(guided=True, trains_guide=True, dynamic=False))
 
 
 def stratified(key, near, far, num_samples: int, randomized: bool = True):
@@ -95,6 +134,12 @@ def with_full_range(key, window_edges, near, far, num_full: int, randomized: boo
                                           window_edges.shape[:-1]),
                     far, num_full, randomized)
   return jnp.sort(jnp.concatenate([full, window_edges], -1), axis=-1)
+
+
+def merge_edges(a, b):
+  """The union of two sorted edge sets over the same range: [..., Na + Nb]
+  sorted edges (NeRF's fine pass over its coarse and fine samples)."""
+  return jnp.sort(jnp.concatenate([a, b], -1), axis=-1)
 
 
 def hierarchical(key, t_edges, weights, num_samples: int, randomized: bool = True,

@@ -13,7 +13,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from halo_jax import camera, encoding, frequency, losses, models, render, samplers
+from halo_jax import camera, encoding, frequency, losses, models, ray_fields, render, samplers
 
 EPS32 = 2.0 ** -24
 
@@ -277,7 +277,7 @@ def case_ray_field_missing_rays() -> List[Check]:
       jnp.asarray(o))
   hit_ok = np.array_equal(np.asarray(hit), disc >= 0)
 
-  model = models.RayField(freqs=10, scale=32.0, width=32, depth=2, skips=(), near=near, far=far)
+  model = ray_fields.RayField(freqs=10, scale=32.0, width=32, depth=2, skips=(), near=near, far=far)
   params = model.init(jax.random.PRNGKey(0), p, jnp.asarray(d))["params"]
   # Push the depth head to saturation both ways: outputs must stay in range.
   big = jax.tree_util.tree_map(lambda x: x * 1e3, params)

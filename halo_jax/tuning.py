@@ -18,8 +18,8 @@ from typing import List, Tuple
 
 import numpy as np
 
-from halo_jax import camera, frequency, models
-from halo_jax.stages import field, nerf
+from halo_jax import camera, frequency, models, raycast
+from halo_jax.stages import radiance
 from halo_jax.stages.state import load
 
 
@@ -56,7 +56,7 @@ def render_pairs(eval_fn, pairs, height, width, focal, chunk):
   rays = [camera.pixel_rays(c, height, width, focal) for c in pairs.reshape(-1, 4, 4)]
   o = np.stack([r[0] for r in rays])
   d = np.stack([r[1] for r in rays])
-  rgb = field.render_chunked(eval_fn, o, d, chunk)["rgb"]
+  rgb = raycast.render_chunked(eval_fn, o, d, chunk)["rgb"]
   rgb = rgb.reshape(len(pairs), 2, height, width, 3)
   return rgb[:, 0], rgb[:, 1]
 
@@ -64,10 +64,10 @@ def render_pairs(eval_fn, pairs, height, width, focal, chunk):
 def lo_criterion(lo_state, dataset, tune_cfg, chunk) -> dict:
   """The criterion of a finished Lo-NeRF: {'criterion', 'per_pair'}."""
   model = models.nerf_from_config(lo_state.config, "lo")
-  render = field.make_eval_fn(model, lo_state.config.lo.sampler, near=dataset.near,
-                              far=dataset.far, white_background=dataset.white_background,
-                              block_rays=lo_state.config.eval.block_rays)
-  eval_fn = lambda o, d: render(lo_state.params, None, o, d)
+  render = raycast.make_eval_fn(model, lo_state.config.lo.sampler, near=dataset.near,
+                                far=dataset.far, white_background=dataset.white_background,
+                                block_rays=lo_state.config.eval.block_rays)
+  eval_fn = lambda o, d: render(lo_state.params["nerf"], None, o, d)
   pairs = nearby_pairs(dataset.train.c2w, tune_cfg.num_pairs, tune_cfg.angle_deg,
                        tune_cfg.seed)
   a, b = render_pairs(eval_fn, pairs, dataset.train.height, dataset.train.width,
@@ -96,22 +96,22 @@ def point_dir(workdir, L, scale):
   return os.path.join(workdir, f"L{L}_s{scale:g}")
 
 
-def tune(config, workdir: str, dataset, full_grid: bool = False) -> dict:
+def tune(config, workdir: str, dataset, run_stages, full_grid: bool = False) -> dict:
   """Runs the search; writes and returns {'grid': [...], 'chosen': {'L', 'scale'}, ...}.
 
   Grid points already finished in `workdir` are reused, so a killed search
   resumes. Without full_grid the search stops at the first point below the
   threshold; if none is, the lowest-frequency point is chosen and
-  'below_threshold' is False.
+  'below_threshold' is False. run_stages: halo_jax.pipeline.run (passed in,
+  so that this module does not import the pipeline that calls it).
   """
-  from halo_jax import stages  # pylint: disable=g-import-not-at-top (stages imports us)
   t = config.tune
   grid, chosen = [], None
   for L, s in parse_grid(t.grid):
     wd = point_dir(workdir, L, s)
     c = point_config(config, L, s)
-    info = stages.run(c, wd, dataset)["lo"]   # a finished point is restored, not retrained
-    lo_state = load(wd, "lo", nerf.init_params(models.nerf_from_config(c, "lo"), c.seed))
+    info = run_stages(c, wd, dataset)["lo"]   # a finished point is restored, not retrained
+    lo_state = load(wd, "lo", radiance.init_params(c, "lo", dataset))
     crit = lo_criterion(lo_state, dataset, t, config.eval.chunk)
     ev = info.get("eval", {})
     grid.append({"L": L, "scale": s, "max_freq": 2.0 ** (L - 1) / s,
@@ -132,7 +132,7 @@ def tune(config, workdir: str, dataset, full_grid: bool = False) -> dict:
   return result
 
 
-def chosen_encoding(config, workdir: str, dataset) -> Tuple[int, float]:
+def chosen_encoding(config, workdir: str, dataset, run_stages) -> Tuple[int, float]:
   """(L, s) for `lo.encoding.auto`: from `<workdir>/tune/results.json` if a
   search already ran there, else runs it."""
   tune_dir = os.path.join(workdir, "tune")
@@ -142,5 +142,5 @@ def chosen_encoding(config, workdir: str, dataset) -> Tuple[int, float]:
       chosen = json.load(f)["chosen"]
   else:
     os.makedirs(tune_dir, exist_ok=True)
-    chosen = tune(config, tune_dir, dataset)["chosen"]
+    chosen = tune(config, tune_dir, dataset, run_stages)["chosen"]
   return int(chosen["L"]), float(chosen["scale"])

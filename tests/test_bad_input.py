@@ -7,7 +7,8 @@ import imageio.v3 as iio
 import numpy as np
 import pytest
 
-from halo_jax import datasets, stages
+from halo_jax import datasets, pipeline, stages
+from halo_jax.registry import ConfigError
 from conftest import tiny_config
 
 
@@ -108,7 +109,7 @@ def test_bad_input_is_refused_before_training(case, scene_root, tmp_path):
   c.data.root = root
   wd = str(tmp_path / "run")
   with pytest.raises(datasets.DataError, match=message):
-    stages.run(c, wd)
+    pipeline.run(c, wd)
   assert not os.path.exists(os.path.join(wd, "lo")), "training started before the error"
 
 
@@ -119,5 +120,5 @@ def test_empty_data_root_and_unknown_kind():
   with pytest.raises(datasets.DataError, match="data.root is empty"):
     datasets.load(c.data)
   c.data.kind = "colmap"
-  with pytest.raises(datasets.DataError, match="data.kind='colmap' is not one of"):
+  with pytest.raises(ConfigError, match="data.kind='colmap' is not a known dataset"):
     datasets.load(c.data)

@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 
 from conftest import SHARED_DATA, tiny_config
-from halo_jax import datasets, metrics, models, stages
+from halo_jax import datasets, metrics, models, pipeline, stages
 from halo_jax.datasets import blender
-from halo_jax.stages import nerf
+from halo_jax.stages import transfer
 
 TINY_DNERF = os.path.join(SHARED_DATA, "dnerf", "tiny_dnerf_data.npz")
 
@@ -111,7 +111,7 @@ def test_json_layout_reads_time_and_requires_it_everywhere(scene_root, tmp_path)
 def test_time_has_its_own_frequencies():
   m = models.DeformNeRF(pos_freqs=3, time_freqs=5, width=8, depth=1, skips=(),
                         use_viewdirs=False, deform_width=8, deform_depth=1)
-  p = nerf.init_params(m, 0)
+  p = models.init_nerf(m, "deform", 0)
   # deformation input: x encoded with L=3 (3 * 7) and t with its own L=5 (11)
   assert p["deform"]["dense_0"]["kernel"].shape == (3 * 7 + 11, 8)
   # the offset starts at zero: the field starts static in time
@@ -132,9 +132,9 @@ def test_hi_starts_as_a_copy_of_lo_in_space_and_time():
   hi = models.DeformNeRF(pos_freqs=6, time_freqs=4, base_freqs=2, base_time_freqs=2,
                          width=16, depth=2, skips=(), use_viewdirs=False, deform_width=8,
                          deform_depth=2)
-  p_lo = nerf.init_params(lo, 0)
+  p_lo = models.init_nerf(lo, "deform", 0)
   p_lo["offset"]["kernel"] = 0.1 * jnp.ones_like(p_lo["offset"]["kernel"])  # a moving Lo
-  p = nerf.transfer_from_lo(nerf.init_params(hi, 1), p_lo, lo_inputs_first=True)
+  p = transfer.transfer_from_lo(models.init_nerf(hi, "deform", 1), p_lo, lo_inputs_first=True)
   x = jax.random.normal(jax.random.PRNGKey(2), (50, 3))
   t = jax.random.uniform(jax.random.PRNGKey(3), (50, 1))
   for a, b in zip(lo.apply({"params": p_lo}, x, None, times=t),
@@ -158,9 +158,9 @@ def test_halo_for_time_smoke(scene_root, tmp_path):
   path = write_npz(str(tmp_path / "d.npz"), scene_root)
   c = dynamic_config(path)
   c.hi.empty.weight = 0.1
-  assert stages.needed(c) == ("lo", "hi")  # no ray field
+  assert pipeline.needed(c) == ("lo", "hi")  # no ray field
   wd = str(tmp_path / "run")
-  infos = stages.run(c, wd)
+  infos = pipeline.run(c, wd)
   ev = infos["hi"]["eval"]
   assert 5.0 < ev["psnr"] < 40.0 and np.isfinite(ev["flicker"]) and ev["flicker"] >= 0
   assert os.path.exists(os.path.join(wd, "hi", "eval", "flicker.png"))
@@ -172,5 +172,8 @@ def test_static_model_on_dynamic_data_is_refused(scene_root, tmp_path):
   path = write_npz(str(tmp_path / "d.npz"), scene_root)
   c = dynamic_config(path)
   c.lo.model.kind = "nerf"
-  with pytest.raises(ValueError, match="use model.kind='deform' for dynamic scenes"):
-    stages.run(c, str(tmp_path / "run"))
+  wd = str(tmp_path / "run")
+  with pytest.raises(ValueError, match="lo.model.kind='nerf' is static .* use 'deform' for scenes "
+                     "with times"):
+    pipeline.run(c, wd)
+  assert not os.path.exists(wd), "refused only after work started"

@@ -49,5 +49,5 @@ def test_fourier_std_from_angular_matches_cycles_across_the_image():
       64.0, 1.0)
   # the light-field defaults carry the authors' st std 64 converted
   from halo_jax import defaults  # pylint: disable=g-import-not-at-top
-  np.testing.assert_allclose(defaults.base_config().hi.fourier.st_std,
+  np.testing.assert_allclose(defaults.light_field_stage(defaults.base_config().hi).fourier.st_std,
                              encoding.fourier_std_from_angular(64.0, 1.0), atol=5e-3)

@@ -8,7 +8,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from halo_jax import camera, frequency, stages, tuning
+from halo_jax import camera, frequency, pipeline, stages, tuning
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 H, W = 32, 40
@@ -87,14 +87,14 @@ def test_search_stops_at_first_point_below_threshold(config, scene_root, tmp_pat
   from halo_jax import datasets
   _tiny_tune(config, scene_root, "6:1,3:8", 1e9)
   ds = datasets.load(config.data)
-  res = tuning.tune(config, str(tmp_path / "a"), ds)
+  res = tuning.tune(config, str(tmp_path / "a"), ds, pipeline.run)
   assert [(g["L"], g["scale"]) for g in res["grid"]] == [(6, 1.0)]
   assert res["chosen"] == {"L": 6, "scale": 1.0} and res["below_threshold"]
-  full = tuning.tune(config, str(tmp_path / "b"), ds, full_grid=True)
+  full = tuning.tune(config, str(tmp_path / "b"), ds, pipeline.run, full_grid=True)
   assert [(g["L"], g["scale"]) for g in full["grid"]] == [(6, 1.0), (3, 8.0)]
   assert all(g["criterion"] > 0 and np.isfinite(g["psnr"]) for g in full["grid"])
   config.tune.threshold = 0.0
-  none = tuning.tune(config, str(tmp_path / "b"), ds)   # reuses the trained points
+  none = tuning.tune(config, str(tmp_path / "b"), ds, pipeline.run)   # reuses the trained points
   assert none["chosen"] == {"L": 3, "scale": 8.0} and not none["below_threshold"]
   saved = json.load(open(os.path.join(tmp_path, "b", "results.json")))
   assert saved["chosen"] == none["chosen"]
@@ -105,7 +105,7 @@ def test_auto_encoding_searches_then_trains_lo_with_the_choice(config, scene_roo
   config.stages = "lo"
   config.lo.encoding.auto = True
   wd = str(tmp_path / "run")
-  stages.run(config, wd)
+  pipeline.run(config, wd)
   saved = json.load(open(os.path.join(wd, "lo", "final", "config.json")))
   assert (saved["lo"]["encoding"]["L"], saved["lo"]["encoding"]["scale"]) == (3, 8.0)
   assert os.path.exists(os.path.join(wd, "tune", "results.json"))

@@ -11,9 +11,9 @@ import numpy as np
 import pytest
 
 from conftest import SHARED_DATA
-from halo_jax import datasets, lightfield, render, stages
+from halo_jax import datasets, lightfield, pipeline, raycast, render, stages
 from halo_jax.datasets import stanford_lf
-from halo_jax.stages import epi
+from halo_jax.stages import epi, radiance
 
 KNIGHTS = os.path.join(SHARED_DATA, "stanford_lf", "knights")
 
@@ -56,12 +56,12 @@ def test_consist_targets_on_a_diffuse_ray_with_one_surface():
   out = render.volume_render(sigma, jnp.zeros((6, 3)), edges, white_background=False)
   weights = np.asarray(out["weights"])
   mids = 0.25 + 0.1 * np.arange(6)
-  np.testing.assert_allclose(epi._consist_target(out, "max_weight"), 0.35, atol=1e-6)
-  np.testing.assert_allclose(epi._consist_target(out, "expected"),
+  np.testing.assert_allclose(epi.consist_target(out, "max_weight"), 0.35, atol=1e-6)
+  np.testing.assert_allclose(epi.consist_target(out, "expected"),
                              (weights * mids).sum() / weights.sum(), rtol=1e-5)
-  assert float(epi._consist_target(out, "expected")) > 0.36
+  assert float(epi.consist_target(out, "expected")) > 0.36
   with pytest.raises(ValueError, match="joint.target"):
-    epi._consist_target(out, "median")
+    epi.consist_target(out, "median")
 
 
 def test_theta_bounds():
@@ -139,16 +139,16 @@ def test_other_size_view_named(tmp_path):
 @pytest.mark.parametrize("baseline,full_range,random_background",
                          [(False, 0.0, False), (False, 0.5, True), (True, 0.0, False)])
 def test_joint_and_baseline_smoke(tmp_path, baseline, full_range, random_background):
-  from halo_jax import defaults
+  from halo_jax.methods import nerf_tuned
   root = write_light_field(str(tmp_path / "lf"))
   c = lf_config(root)
   c.hi.joint.full_range = full_range
   c.hi.random_background = random_background
   if baseline:
-    defaults.as_nerf_baseline(c)
-  assert stages.needed(c) == ("hi",)
+    nerf_tuned.apply(c)
+  assert pipeline.needed(c) == ("hi",)
   wd = str(tmp_path / "run")
-  infos = stages.run(c, wd)
+  infos = pipeline.run(c, wd)
   ev = infos["hi"]["eval"]
   assert 5.0 < ev["psnr"] < 60.0
   log = [json.loads(l) for l in open(os.path.join(wd, "metrics.jsonl"))]
@@ -163,7 +163,7 @@ def test_joint_and_baseline_smoke(tmp_path, baseline, full_range, random_backgro
 
 
 def joint_loss_grads(c, setting, values):
-  """epi._loss_fn's (aux, grads) at key 3, step 2 for each value of
+  """epi.loss_fn's (aux, grads) at key 3, step 2 for each value of
   c.hi.joint.<setting>, the fields built anew for each (a colour head adds
   parameters; the others start equal). Returns (dataset, data, {value: (aux,
   grads)})."""
@@ -173,7 +173,7 @@ def joint_loss_grads(c, setting, values):
   for v in values:
     c.hi.joint[setting] = v
     model, ray_model = epi.models_from_config(c, "hi")
-    loss = functools.partial(epi._loss_fn, model=model, ray_model=ray_model, cfg=c.hi,
+    loss = functools.partial(epi.loss_fn, model=model, ray_model=ray_model, cfg=c.hi,
                              theta_n=ds.near, theta_f=ds.far)
     (_, aux), grads = jax.value_and_grad(loss, has_aux=True)(
         epi.init_params(model, ray_model, 0), data, jax.random.PRNGKey(3), 2)
@@ -241,7 +241,7 @@ def test_nerf_consist_weight_trains_the_radiance_field_only(tmp_path):
     idx = jax.random.randint(k_idx, (c.hi.batch_rays,), 0, data["rgb"].shape[0])
     keys = jax.random.split(k_ren, c.hi.batch_rays)
     out = epi.render_rays(model, ray_model, c.hi, dict(params, nerf=nerf), data["uv"][idx],
-                          data["st"][idx], keys, epi._alpha(c.hi, 2), theta_n=ds.near,
+                          data["st"][idx], keys, radiance.joint_window(c.hi, 2), theta_n=ds.near,
                           theta_f=ds.far, randomized=True, noise=c.hi.density_noise)
     tau = render.normalized_depth(out["depth"], out["acc"])
     return 0.5 * jnp.mean((jax.lax.stop_gradient(out["tau_ray"]) - tau) ** 2)
@@ -276,14 +276,14 @@ def test_view_input_reaches_only_the_colour(uv_features):
 
 
 def test_ray_field_uv_std_rescales_only_the_uv_rows():
-  from halo_jax import encoding, models
-  base = models.ray_field_matrix(0, 16, 4.0)
+  from halo_jax import encoding, ray_fields
+  base = ray_fields.ray_field_matrix(0, 16, 4.0)
   np.testing.assert_array_equal(base, encoding.fourier_matrix(3, 4, 16, 4.0))
-  mixed = models.ray_field_matrix(0, 16, 4.0, uv_std=0.5)
+  mixed = ray_fields.ray_field_matrix(0, 16, 4.0, uv_std=0.5)
   np.testing.assert_allclose(mixed[:2], base[:2] / 8.0, rtol=1e-6)   # (u, v): std 0.5
   np.testing.assert_array_equal(mixed[2:], base[2:])                 # (s, t): std 4
   # the model reads that matrix: its first layer sees the rescaled features
-  field = models.EPIRayField(std=4.0, uv_std=0.5, num_features=16, width=8, depth=1)
+  field = ray_fields.EPIRayField(std=4.0, uv_std=0.5, num_features=16, width=8, depth=1)
   rays = jax.random.uniform(jax.random.PRNGKey(0), (8, 4), minval=-1, maxval=1)
   params = field.init(jax.random.PRNGKey(1), rays)
   _, state = field.apply(params, rays, capture_intermediates=True)

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from conftest import SHARED_DATA, tiny_config
-from halo_jax import camera, datasets, stages
+from halo_jax import camera, datasets, pipeline, stages
 
 FERN = os.path.join(SHARED_DATA, "nerf_llff_data", "fern")
 
@@ -87,8 +87,8 @@ def test_bad_llff_input(tmp_path, edit, message):
 def test_forward_facing_stages_smoke(tmp_path):
   root = write_llff(str(tmp_path / "scene"))
   c = llff_config(root)
-  assert stages.needed(c) == ("lo", "ray", "hi")
-  infos = stages.run(c, str(tmp_path / "run"))
+  assert pipeline.needed(c) == ("lo", "ray", "hi")
+  infos = pipeline.run(c, str(tmp_path / "run"))
   assert np.isfinite(infos["hi"]["eval"]["psnr"])
   assert infos["ray"]["step"] == c.ray.steps
 
@@ -112,9 +112,9 @@ def test_joint_scheme_smoke(tmp_path):
   c.hi.sampler.kind = "joint"
   c.stages = "lo,hi"
   c.hi.joint.update(alpha_steps=4, alpha_final=0.3)
-  assert stages.needed(c) == ("lo", "hi")  # the ray field trains inside hi
+  assert pipeline.needed(c) == ("lo", "hi")  # the ray field trains inside hi
   wd = str(tmp_path / "run")
-  infos = stages.run(c, wd)
+  infos = pipeline.run(c, wd)
   assert np.isfinite(infos["hi"]["eval"]["psnr"])
   log = [json.loads(l) for l in open(os.path.join(wd, "metrics.jsonl"))]
   hi = [r for r in log if r.get("stage") == "hi" and "loss" in r]
@@ -124,4 +124,4 @@ def test_joint_scheme_smoke(tmp_path):
   # a relaunch of hi alone loads the joint state's structure
   c.stages = "hi"
   c.hi.steps = 6
-  assert stages.run(c, wd)["hi"]["step"] == 6
+  assert pipeline.run(c, wd)["hi"]["step"] == 6

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from conftest import tiny_config
-from halo_jax import rng, stages
+from halo_jax import pipeline, raycast, rng, stages
 from halo_jax.stages import loop
 from test_lightfield import lf_config, write_light_field
 
@@ -58,7 +58,7 @@ def test_gradients_of_parts_equal_the_whole_batch():
 
 
 def _train_losses(c, wd):
-  stages.run(c, wd)
+  pipeline.run(c, wd)
   recs = [json.loads(l) for l in open(os.path.join(wd, "metrics.jsonl"))]
   return [(r["stage"], r["step"], r["loss"]) for r in recs
           if "loss" in r and not r.get("heldout")]
@@ -96,13 +96,13 @@ def test_microbatched_light_field_follows_the_whole_batch(tmp_path):
 
 
 def test_blocks_render_what_one_pass_renders():
-  from halo_jax.stages import field
+
   per_ray = lambda o, d, t: {"a": jnp.sum(jnp.sin(o * d), -1), "b": o * 2}
   o = jax.random.normal(jax.random.PRNGKey(0), (10, 3))
   d = jax.random.normal(jax.random.PRNGKey(1), (10, 3))
   whole = per_ray(o, d, None)
   for block in (0, 3, 5, 16):  # 3: the last block is padded
-    out = field.in_blocks(per_ray, block, o, d, None)
+    out = raycast.in_blocks(per_ray, block, o, d, None)
     assert out["a"].shape == (10,) and out["b"].shape == (10, 3)
     np.testing.assert_allclose(out["a"], whole["a"], rtol=1e-6)
     np.testing.assert_array_equal(out["b"], whole["b"])

@@ -14,7 +14,7 @@ import json, sys
 sys.path.insert(0, {tests!r})
 import jax, jax.numpy as jnp
 from conftest import tiny_config
-from halo_jax import parallel, stages
+from halo_jax import parallel, pipeline, stages
 
 assert jax.device_count() == 2, jax.devices()
 c = tiny_config()
@@ -32,7 +32,7 @@ for dp, parts in ((False, 1), (True, 1), (True, 2)):
   for name in ("lo", "ray", "hi"):
     c[name].update(steps=8, log_every=1, microbatches=parts)
   wd = {wd!r} + "/dp" + str(int(dp)) + "_" + str(parts)
-  stages.run(c, wd)
+  pipeline.run(c, wd)
   recs = [json.loads(l) for l in open(wd + "/metrics.jsonl")]
   out["losses"][f"{{dp}}_{{parts}}"] = [[r["stage"], r["step"], r["loss"]] for r in recs
                                       if "loss" in r and not r.get("heldout")]

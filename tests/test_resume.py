@@ -13,7 +13,7 @@ import numpy as np
 import optax
 import pytest
 
-from halo_jax import checkpoint, stages
+from halo_jax import checkpoint, pipeline, stages
 from halo_jax.stages import loop
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -85,7 +85,7 @@ RUN_TINY = """
 import sys
 sys.path.insert(0, {tests!r})
 from conftest import tiny_config
-from halo_jax import stages
+from halo_jax import pipeline, stages
 c = tiny_config()
 c.data.root = {root!r}
 c.hi.encoding.with_lo = True
@@ -94,7 +94,7 @@ for name in ("lo", "ray", "hi"):
   c[name].update(steps=300, checkpoint_every=25, log_every=10)
   c[name].batch_rays = 256
 c.lo.eval_every = c.hi.eval_every = 100
-stages.run(c, {wd!r})
+pipeline.run(c, {wd!r})
 print("DONE")
 """
 
@@ -153,7 +153,7 @@ def test_workdir_of_another_config_is_refused(config, scene_root, tmp_path):
   config.data.root = scene_root
   config.stages = "lo"
   wd = str(tmp_path / "run")
-  stages.run(config, wd)
+  pipeline.run(config, wd)
   # Longer training and other stages are fine in the same workdir...
   config.lo.steps = 8
   stages.check_workdir(config, wd)
@@ -163,4 +163,4 @@ def test_workdir_of_another_config_is_refused(config, scene_root, tmp_path):
   with pytest.raises(stages.WorkdirMismatch, match=r"config.json: this workdir holds a run made "
                      r"with another config \(2 fields differ: lo.encoding.L: 5 -> 7, "
                      r"lo.model.width: 32 -> 48\)"):
-    stages.run(config, wd)
+    pipeline.run(config, wd)

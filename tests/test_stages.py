@@ -9,8 +9,8 @@ import imageio.v3 as iio
 import numpy as np
 import pytest
 
-from halo_jax import stages
-from halo_jax.stages import nerf
+from halo_jax import models, pipeline, stages
+from halo_jax.stages import transfer
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
@@ -25,7 +25,7 @@ def test_all_stages_then_hi_alone_reuses_earlier_states(config, scene_root, tmp_
   config.hi.encoding.with_lo = True
   config.hi.init_from_lo = True
   wd = str(tmp_path / "run")
-  infos = stages.run(config, wd)
+  infos = pipeline.run(config, wd)
   assert list(infos) == ["lo", "ray", "hi"]
   for name in ("lo", "hi"):
     ev = json.load(open(os.path.join(wd, name, "eval", "metrics.json")))
@@ -49,17 +49,17 @@ def test_all_stages_then_hi_alone_reuses_earlier_states(config, scene_root, tmp_
   # more steps from hi's checkpoint.
   config.stages = "hi"
   config.hi.steps = 8
-  infos = stages.run(config, wd)
+  infos = pipeline.run(config, wd)
   assert list(infos) == ["hi"] and infos["hi"]["step"] == 8
 
 
 def test_nerf_baseline_needs_no_earlier_stage(config, scene_root, tmp_path):
-  from halo_jax import defaults
+  from halo_jax.methods import nerf_tuned
   config.data.root = scene_root
-  defaults.as_nerf_baseline(config, num_samples=8)
+  nerf_tuned.apply(config, 8)
   config.hi.sampler.kind = "hierarchical"
-  assert stages.needed(config) == ("hi",)
-  infos = stages.run(config, str(tmp_path / "nerf"))
+  assert pipeline.needed(config) == ("hi",)
+  infos = pipeline.run(config, str(tmp_path / "nerf"))
   assert infos["hi"]["step"] == config.hi.steps
 
 
@@ -67,16 +67,16 @@ def test_missing_earlier_stage_is_a_clear_error(config, scene_root, tmp_path):
   config.data.root = scene_root
   config.stages = "hi"
   with pytest.raises(FileNotFoundError, match="stage 'lo' has not finished"):
-    stages.run(config, str(tmp_path / "empty"))
+    pipeline.run(config, str(tmp_path / "empty"))
 
 
 def test_budget_splits_by_share(config):
   config.budget_s = 100.0
-  c = stages.with_budget(config)
+  c = pipeline.with_budget(config)
   np.testing.assert_allclose([c.lo.max_seconds, c.ray.max_seconds, c.hi.max_seconds],
                              [25.0, 10.0, 65.0])
   config.stages = "lo"
-  assert stages.with_budget(config).lo.max_seconds == 25.0  # hi still needs lo's share
+  assert pipeline.with_budget(config).lo.max_seconds == 25.0  # hi still needs lo's share
 
 
 def test_stages_that_stop_early_leave_their_time_to_the_next(config, scene_root, tmp_path):
@@ -95,7 +95,7 @@ def test_stages_that_stop_early_leave_their_time_to_the_next(config, scene_root,
                         eval_every=0)
   total = sum(config.budget_shares[n] for n in ("lo", "ray", "hi"))
   share = {n: budget * config.budget_shares[n] / total for n in ("lo", "ray", "hi")}
-  infos = stages.run(config, str(tmp_path / "run"))
+  infos = pipeline.run(config, str(tmp_path / "run"))
   for name in ("lo", "ray"):
     assert infos[name]["step"] == 2 and infos[name]["wall_s"] < share[name]
   used = infos["lo"]["wall_s"] + infos["ray"]["wall_s"]
@@ -111,8 +111,8 @@ def test_transfer_from_lo_with_lo_encoding_starts_as_lo():
                       use_viewdirs=False)
   hi = models.NeRFMLP(pos_freqs=10, base_freqs=5, base_scale=8.0, width=16, depth=4,
                       skips=(2,), use_viewdirs=False)
-  p_lo, p_hi = nerf.init_params(lo, 0), nerf.init_params(hi, 1)
-  p = nerf.transfer_from_lo(p_hi, p_lo, lo_inputs_first=True)
+  p_lo, p_hi = models.init_nerf(lo, "nerf", 0), models.init_nerf(hi, "nerf", 1)
+  p = transfer.transfer_from_lo(p_hi, p_lo, lo_inputs_first=True)
   x = jax.random.normal(jax.random.PRNGKey(2), (50, 3))
   for a, b in zip(lo.apply({"params": p_lo}, x, x), hi.apply({"params": p}, x, x)):
     np.testing.assert_allclose(a, b, rtol=1e-5, atol=1e-6)
@@ -122,16 +122,16 @@ def test_transfer_from_lo_keeps_input_layer():
   from halo_jax import models
   lo = models.NeRFMLP(pos_freqs=5, width=16, depth=2, skips=(), use_viewdirs=False)
   hi = models.NeRFMLP(pos_freqs=10, width=16, depth=2, skips=(), use_viewdirs=True)
-  p_lo, p_hi = nerf.init_params(lo, 0), nerf.init_params(hi, 1)
-  out = nerf.transfer_from_lo(p_hi, p_lo)
+  p_lo, p_hi = models.init_nerf(lo, "nerf", 0), models.init_nerf(hi, "nerf", 1)
+  out = transfer.transfer_from_lo(p_hi, p_lo)
   np.testing.assert_array_equal(out["trunk"]["dense_1"]["kernel"], p_lo["trunk"]["dense_1"]["kernel"])
   np.testing.assert_array_equal(out["trunk"]["dense_0"]["kernel"], p_hi["trunk"]["dense_0"]["kernel"])
   np.testing.assert_array_equal(out["view"]["kernel"], p_hi["view"]["kernel"])
   # Equal widths do not make the input layer transferable: it reads other features.
   same_width = models.NeRFMLP(pos_freqs=5, pos_scale=1.0, width=16, depth=2, skips=(),
                               use_viewdirs=False)
-  p_same = nerf.init_params(same_width, 3)
-  out = nerf.transfer_from_lo(p_same, p_lo)
+  p_same = models.init_nerf(same_width, "nerf", 3)
+  out = transfer.transfer_from_lo(p_same, p_lo)
   np.testing.assert_array_equal(out["trunk"]["dense_0"]["kernel"], p_same["trunk"]["dense_0"]["kernel"])
   np.testing.assert_array_equal(out["trunk"]["dense_1"]["kernel"], p_lo["trunk"]["dense_1"]["kernel"])
 

@@ -5,6 +5,7 @@ from typing import Optional, Tuple
 import numpy as np
 
 from halo_jax import camera
+from halo_jax.geometry import Geometry
 
 
 class DataError(ValueError):
@@ -54,11 +55,14 @@ class Dataset:
   """Training and held-out views of one scene plus its bounds.
 
   Attributes:
-    train, test: Views.
-    near, far: ray bounds.
-    radius: camera radius (mean distance of training cameras from the origin),
-      the sphere on which the ray field parametrises rays.
+    train, test: Views (for TWO_PLANE, stanford_lf.LightFieldViews).
+    near, far: bounds of the ray parameter, which the geometry defines:
+      scene distance t (SPHERE), NDC t in [0, 1] (NDC), the EPI angle theta
+      (TWO_PLANE: theta_n, theta_f).
+    radius: SPHERE: camera radius (mean distance of training cameras from
+      the origin), the sphere on which the ray field enters rays; else 0.
     white_background: images were composited onto white.
+    geometry: what a ray is (halo_jax.geometry.Geometry).
   """
   train: Views
   test: Views
@@ -66,6 +70,12 @@ class Dataset:
   far: float
   radius: float
   white_background: bool = True
+  geometry: Geometry = Geometry.SPHERE
+
+  @property
+  def dynamic(self) -> bool:
+    """Whether frames carry capture times."""
+    return getattr(self.train, "times", None) is not None
 
 
 def camera_radius(c2w) -> float:

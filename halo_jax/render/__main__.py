@@ -11,8 +11,9 @@ from absl import app, flags, logging
 import imageio.v3 as iio
 import numpy as np
 
-from halo_jax import camera, checkpoint, datasets, evaluate, models, stages
-from halo_jax.stages import field
+from halo_jax import camera, checkpoint, datasets, evaluate, geometry, models, raycast
+from halo_jax import ray_fields, stages
+from halo_jax.stages import base
 
 FLAGS = flags.FLAGS
 flags.DEFINE_string("workdir", None, "A run folder written by halo_jax.main.")
@@ -44,31 +45,35 @@ def main(argv):
   if name is None or not _finished(wd, name):
     raise SystemExit(f"{wd}: no finished stage {FLAGS.stage or 'hi or lo'} to render")
   config = checkpoint.read_config(os.path.join(wd, name, "final", "config.json"))
-  if config.data.kind not in ("blender", "procedural") or config[name].sampler.kind == "joint":
+  spec = datasets.spec_of(config.data)
+  if spec.geometry != geometry.Geometry.SPHERE or spec.dynamic or config[name].sampler.kind == "joint":
     # An orbit is a 360-degree path of a static scene with a separate ray stage.
-    raise SystemExit(f"{wd}: orbits are rendered for static 360-degree scenes (data.kind "
-                     f"blender or procedural, no joint sampler); this run is "
-                     f"{config.data.kind!r} with sampler {config[name].sampler.kind!r}. "
+    raise SystemExit(f"{wd}: orbits are rendered for static 360-degree scenes (no joint "
+                     f"sampler); this run is {config.data.kind!r} with sampler "
+                     f"{config[name].sampler.kind!r}. "
                      f"Its held-out renders are in {os.path.join(wd, name, 'eval')}.")
   dataset = datasets.load(config.data, wd)
   cfg = config[name]
   model = models.nerf_from_config(config, name)
-  state = stages.load(wd, name, stages.nerf.init_params(model, config.seed))
-  guide_model, guide_params, radius = None, None, None
+  state = stages.load(wd, name, base.trainer_of(config, name).params_like(config, name, dataset))
+  guide_model, guide_params, radius = None, None, 0.0
   if cfg.sampler.kind == "depth_guided":
-    guide_model = models.ray_field_from_config(config.ray, dataset.near, dataset.far)
-    guide_params = stages.load(wd, "ray", stages.ray.init_params(guide_model, 0)).params
+    guide_model = ray_fields.ray_field_from_config(config.ray, dataset.near, dataset.far)
+    ray_like = base.trainer_of(config, "ray").params_like(config, "ray", dataset)
+    guide_params = stages.load(wd, "ray", ray_like).params["ray"]
     radius = config.ray.radius or dataset.radius
-  fn = field.make_eval_fn(model, cfg.sampler, near=dataset.near, far=dataset.far,
-                          white_background=dataset.white_background,
-                          guide_model=guide_model, radius=radius,
-                          block_rays=config.eval.block_rays)
+  fn = raycast.make_eval_fn(model, cfg.sampler, near=dataset.near, far=dataset.far,
+                            white_background=dataset.white_background,
+                            guide_model=guide_model, radius=radius,
+                            block_rays=config.eval.block_rays)
   cam_radius, elevation = orbit_for(dataset.test)
   h, w, f = dataset.test.height, dataset.test.width, dataset.test.focal
   frames = []
   for c2w in camera.orbit_path(cam_radius, FLAGS.frames, elevation):
     o, d = camera.pixel_rays(c2w, h, w, f)
-    out = field.render_chunked(lambda oo, dd: fn(state.params, guide_params, oo, dd), o, d,
+    out = raycast.render_chunked(lambda oo, dd: fn(state.params["nerf"], guide_params, oo, dd,
+                                                   coarse_params=state.params.get("coarse")),
+                                 o, d,
                                config.eval.chunk)
     rgb = (np.clip(out["rgb"], 0, 1) * 255).round().astype(np.uint8)
     frames.append(np.concatenate(

@@ -20,10 +20,31 @@ import os
 import jax
 import jax.numpy as jnp
 import numpy as np
-from halo_jax import (evaluate, lightfield, losses, metrics, models, parallel, render, rng,
-                      samplers)
-from halo_jax.stages import field, loop
+from halo_jax import (evaluate, geometry, lightfield, losses, metrics, models, parallel,
+                      ray_fields, raycast, registry, render, rng, samplers)
+from halo_jax.stages import base, batches, loop
+from halo_jax.stages.radiance import joint_window
 from halo_jax.stages.state import StageState, stage_dir
+
+SAMPLER_KINDS = ("stratified", "joint")
+
+
+def requires(config, name):
+  return ()
+
+
+def check(config, name, dspec):
+  cfg = config[name]
+  registry.check(cfg.sampler.kind in SAMPLER_KINDS,
+                 f"{name}.sampler.kind={cfg.sampler.kind!r}: light fields use one of "
+                 f"{list(SAMPLER_KINDS)}")
+  registry.check(cfg.model.get("kind") == "epi",
+                 f"{name}.model.kind={cfg.model.get('kind')!r}: the light-field stage "
+                 "renders an 'epi' field")
+  registry.check("empty" not in cfg or cfg.empty.weight == 0,
+                 f"{name}.empty.weight={cfg.empty.weight if 'empty' in cfg else 0}: L_empty "
+                 "needs random rays from a hemisphere of cameras, which a light field does "
+                 "not have: set it to 0")
 
 
 def init_params(model, ray_model, seed):
@@ -37,7 +58,8 @@ def init_params(model, ray_model, seed):
 
 def models_from_config(config, name):
   cfg = config[name]
-  ray_model = models.epi_ray_field_from_config(cfg.joint) if cfg.sampler.kind == "joint" else None
+  joint = cfg.sampler.kind == "joint"
+  ray_model = ray_fields.epi_ray_field_from_config(cfg.joint) if joint else None
   return models.nerf_from_config(config, name), ray_model
 
 
@@ -95,11 +117,7 @@ def render_rays(model, ray_model, cfg, params, uv, st, key, alpha, *, theta_n, t
   return out
 
 
-def _alpha(cfg, step):
-  return lightfield.alpha_schedule(step, cfg.joint.alpha_steps, cfg.joint.alpha_final)
-
-
-def _consist_target(out, target: str):
+def consist_target(out, target: str):
   """tau_nerf [R]: the radiance field's expected tau, or the tau of its
   largest weight (the mode, which a diffuse density does not pull towards the
   window's centre)."""
@@ -110,11 +128,11 @@ def _consist_target(out, target: str):
   raise ValueError(f"joint.target={target!r}: use 'expected' or 'max_weight'")
 
 
-def _consist_loss(out, target: str):
-  """L_consist = mean |tau_ray - tau_nerf|^2 over a render's rays, tau_nerf
-  held fixed, so it trains the ray field only."""
-  tau_nerf = jax.lax.stop_gradient(_consist_target(out, target))
-  return jnp.mean((out["tau_ray"] - tau_nerf) ** 2)
+def consist_loss(out, target: str):
+  """L_consist over a render's rays with tau_nerf held fixed, so it trains
+  the ray field only."""
+  tau_nerf = jax.lax.stop_gradient(consist_target(out, target))
+  return losses.consistency(out["tau_ray"], tau_nerf)
 
 
 def with_random_background(rgb, acc, keys):
@@ -126,19 +144,19 @@ def with_random_background(rgb, acc, keys):
   return rgb + u * (1.0 - acc[..., None])
 
 
-def _loss_fn(params, data, key, step, part=None, *, model, ray_model, cfg, theta_n, theta_f,
-             mesh=None):
+def loss_fn(params, data, key, step, part=None, *, model, ray_model, cfg, theta_n, theta_f,
+            mesh=None):
   """L_rec (+ consist_weight * L_consist for the joint sampler, the same
   with nerf_consist_weight into the radiance field, + color_weight
   * the ray field's colour loss where it has a colour head) on the batch, or
   on its `part` (loop.part_of)."""
   k_idx, k_ren = jax.random.split(key)
-  idx = jax.random.randint(k_idx, (cfg.batch_rays,), 0, data["rgb"].shape[0])
+  idx = batches.draw(k_idx, None, step, data["rgb"].shape[0], cfg.batch_rays, None, 0)
   keys = jax.random.split(k_ren, cfg.batch_rays)  # per ray: parts draw as the whole
   idx, keys = loop.part_of(idx, part), loop.part_of(keys, part)
   idx = parallel.shard_batch(idx, mesh)
   out = render_rays(model, ray_model, cfg, params, data["uv"][idx], data["st"][idx], keys,
-                    _alpha(cfg, step), theta_n=theta_n, theta_f=theta_f, randomized=True,
+                    joint_window(cfg, step), theta_n=theta_n, theta_f=theta_f, randomized=True,
                     noise=cfg.density_noise)
   rgb = out["rgb"]
   if cfg.random_background:
@@ -147,14 +165,14 @@ def _loss_fn(params, data, key, step, part=None, *, model, ray_model, cfg, theta
   aux = {"psnr": metrics.mse_to_psnr(rec)}
   loss = rec
   if out["tau_ray"] is not None:
-    consist = _consist_loss(out, cfg.joint.target)
+    consist = consist_loss(out, cfg.joint.target)
     loss = loss + cfg.joint.consist_weight * consist
-    aux.update(consist=consist, alpha=_alpha(cfg, step))
+    aux.update(consist=consist, alpha=joint_window(cfg, step))
     if cfg.joint.nerf_consist_weight > 0:
       # the other half of the paper's L_consist, which the authors' code
       # detaches: the radiance field's tau pulled towards the ray field's
-      pull = jnp.mean((jax.lax.stop_gradient(out["tau_ray"])
-                       - _consist_target(out, cfg.joint.target)) ** 2)
+      pull = losses.consistency(jax.lax.stop_gradient(out["tau_ray"]),
+                                consist_target(out, cfg.joint.target))
       loss = loss + cfg.joint.nerf_consist_weight * pull
     if out["rgb_ray"] is not None:
       # the ray field's colour head on the pixels (the authors' nelf_rec_loss)
@@ -194,9 +212,9 @@ def _random_ray_consist(params, uv_box, key, step, part, *, model, ray_model, cf
   keys = jax.random.split(k_ren, n)
   uv, st, keys = (parallel.shard_batch(loop.part_of(x, part), mesh) for x in (uv, st, keys))
   frozen = dict(params, nerf=jax.lax.stop_gradient(params["nerf"]))
-  out = render_rays(model, ray_model, cfg, frozen, uv, st, keys, _alpha(cfg, step),
+  out = render_rays(model, ray_model, cfg, frozen, uv, st, keys, joint_window(cfg, step),
                     theta_n=theta_n, theta_f=theta_f, randomized=True)
-  consist = _consist_loss(out, cfg.joint.target)
+  consist = consist_loss(out, cfg.joint.target)
   if out["rgb_ray"] is None:
     return consist, None
   # out["rgb"] carries no gradient: the radiance field is frozen above
@@ -224,39 +242,44 @@ def make_eval_fn(model, ray_model, cfg, theta_n, theta_f, block_rays=0):
                         randomized=False)
       return {"rgb": out["rgb"], "depth": render.normalized_depth(out["depth"], out["acc"]),
               "acc": out["acc"]}
-    return field.in_blocks(render_block, block_rays, o, d)
+    return raycast.in_blocks(render_block, block_rays, o, d)
   return fn
 
 
-def train(config, dataset, workdir, name="hi", log=None, wall_offset=0.0, mesh=None):
-  """Trains the light-field stage `name`; returns (StageState, info)."""
-  cfg = config[name]
-  loop.check_parts(cfg, cfg.batch_rays, f"{name}.batch_rays", mesh)
+def train(ctx: base.StageContext):
+  """Trains the light-field stage ctx.name; returns (StageState, info)."""
+  config, name, dataset, cfg = ctx.config, ctx.name, ctx.dataset, ctx.cfg
+  loop.check_parts(cfg, cfg.batch_rays, f"{name}.batch_rays", ctx.mesh)
   if cfg.sampler.kind == "joint" and cfg.joint.random_rays > 0:
-    loop.check_parts(cfg, cfg.joint.random_rays, f"{name}.joint.random_rays", mesh)
+    loop.check_parts(cfg, cfg.joint.random_rays, f"{name}.joint.random_rays", ctx.mesh)
   model, ray_model = models_from_config(config, name)
   theta_n, theta_f = dataset.near, dataset.far
   data = jax.device_put(training_rays(dataset.train))
-  loss_fn = functools.partial(_loss_fn, model=model, ray_model=ray_model, cfg=cfg,
-                              theta_n=theta_n, theta_f=theta_f, mesh=mesh)
+  step_loss = functools.partial(loss_fn, model=model, ray_model=ray_model, cfg=cfg,
+                                theta_n=theta_n, theta_f=theta_f, mesh=ctx.mesh)
   render_eval = make_eval_fn(model, ray_model, cfg, theta_n, theta_f, config.eval.block_rays)
 
   def eval_fn(params, step):
     # the joint sampler renders with the window it trains with at this step
-    fn = functools.partial(render_eval, params, _alpha(cfg, step))
+    fn = functools.partial(render_eval, params, joint_window(cfg, step))
     return {"psnr": evaluate.heldout_psnr(fn, dataset.test, config.eval.chunk,
                                           config.eval.curve_views)}
 
-  params, step, info = loop.train(name, cfg, workdir,
-                                  init_params(model, ray_model, config.seed), loss_fn,
-                                  data, config.seed, eval_fn, log, wall_offset, mesh)
-  final = functools.partial(render_eval, params, _alpha(cfg, step))
+  params, step, info = loop.train(name, cfg, ctx.workdir,
+                                  init_params(model, ray_model, config.seed), step_loss,
+                                  data, config.seed, eval_fn, ctx.log, ctx.wall_offset, ctx.mesh)
+  final = functools.partial(render_eval, params, joint_window(cfg, step))
   info["eval"] = evaluate.evaluate(final, dataset.test, config.eval.chunk,
-                                   os.path.join(stage_dir(workdir, name), "eval"), 0.0, 1.0,
+                                   os.path.join(stage_dir(ctx.workdir, name), "eval"), 0.0, 1.0,
                                    config.eval.save_images, config.eval.lpips)
   return StageState(params, step, config, name), info
 
 
-def params_like(config, name):
+def params_like(config, name, dataset=None):
   model, ray_model = models_from_config(config, name)
   return init_params(model, ray_model, config.seed)
+
+
+base.TRAINERS.register("light_field", base.Trainer(
+    requires=requires, params_like=params_like, train=train, check=check,
+    geometries=frozenset({geometry.Geometry.TWO_PLANE})))

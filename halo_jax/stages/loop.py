@@ -54,8 +54,10 @@ class MetricsLog:
 
 
 def optimizer(cfg) -> optax.GradientTransformation:
-  """Adam with NeRF's log-linear decay from lr_init to lr_final over `steps`."""
-  schedule = optax.exponential_decay(cfg.lr_init, transition_steps=max(cfg.steps, 1),
+  """Adam with NeRF's log-linear decay: from lr_init to lr_final over `steps`,
+  or by lr_final / lr_init every `lr_decay_steps` where that is set."""
+  span = cfg.get("lr_decay_steps", 0) or max(cfg.steps, 1)
+  schedule = optax.exponential_decay(cfg.lr_init, transition_steps=span,
                                      decay_rate=cfg.lr_final / cfg.lr_init)
   return optax.adam(schedule)
 

@@ -1,46 +1,45 @@
-"""Rendering a stage's field along rays: sampling, querying, compositing.
+"""Rendering a radiance field along rays: sampling, querying, compositing.
 
 Everything here is a pure function of parameters and rays; `render_chunked`
 is the only host-side loop (over fixed-size chunks of an image, padded so one
-compiled function serves every chunk).
+compiled function serves every chunk). Models are passed in (any Flax module
+with the radiance-field call signature), never imported.
 """
 import functools
-from typing import NamedTuple, Optional
+from typing import Any, NamedTuple, Optional
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 
-from halo_jax import camera, models, render, rng, samplers
+from halo_jax import camera, render, rng, samplers
+from halo_jax.geometry import Geometry
 
 
 class Guide(NamedTuple):
-  """A frozen ray field that places the samples of a depth-guided NeRF."""
-  model: models.RayField
-  params: dict
-  radius: float
+  """A ray field that places the samples of a guided sampler.
+
+  geometry: how rays enter the field: SPHERE where they cross the sphere of
+  `radius`; NDC as they are (they start on the near plane).
+  """
+  model: Any
+  params: Any
+  geometry: Geometry
+  radius: float = 0.0
 
 
 def ray_field_depth(guide: Guide, origins, dirs):
   """Depth along each camera ray predicted by the ray field, and its opacity.
 
-  A ray enters the field's parameterisation where it meets the sphere of
-  `guide.radius`; radius 0 means the rays already start on their entry plane
-  (forward-facing scenes in NDC), so origins are the entry points.
-
   Args: origins, dirs [..., 3]. Returns depth [...] (camera t), acc [...].
   """
-  if guide.radius <= 0:
-    depth, acc = guide.model.apply({"params": guide.params}, origins, dirs)
-    return depth, acc
+  if guide.geometry == Geometry.NDC:
+    return guide.model.apply({"params": guide.params}, origins, dirs)
+  if guide.geometry != Geometry.SPHERE:
+    raise ValueError(f"a 3D ray field cannot read {guide.geometry.value} rays")
   t_entry, entry, _ = camera.sphere_entry(origins, dirs, guide.radius)
   depth, acc = guide.model.apply({"params": guide.params}, entry, dirs)
   return t_entry + depth, acc
-
-
-def uses_guide(sampler_cfg) -> bool:
-  """Whether the sampler places samples around a ray field's depth."""
-  return sampler_cfg.kind in ("depth_guided", "joint")
 
 
 def sample_edges(sampler_cfg, key, shape, near, far, guide_depth=None, randomized=True,
@@ -50,45 +49,48 @@ def sample_edges(sampler_cfg, key, shape, near, far, guide_depth=None, randomize
   window: the guided samplers' half window (a fraction of far - near; may be
   traced); None uses sampler_cfg.window.
   """
-  n = sampler_cfg.num_samples
+  spec = samplers.SAMPLERS.get(sampler_cfg.kind, "sampler.kind")
   near = jnp.full(shape, near, jnp.float32)
-  if uses_guide(sampler_cfg):
+  if spec.guided:
     window = sampler_cfg.window if window is None else window
-    return samplers.depth_guided(key, guide_depth, near, far, n, window,
+    return samplers.depth_guided(key, guide_depth, near, far, sampler_cfg.num_samples, window,
                                  sampler_cfg.near_only, randomized)
-  if sampler_cfg.kind == "hierarchical":
-    n = sampler_cfg.num_coarse
-  elif sampler_cfg.kind != "stratified":
-    raise ValueError(f"sampler.kind={sampler_cfg.kind!r} is not one of "
-                     "'stratified', 'hierarchical', 'depth_guided', 'joint'")
+  n = sampler_cfg.num_coarse if spec.importance else sampler_cfg.num_samples
   return samplers.stratified(key, near, far, n, randomized)
 
 
 def composite(model, params, origins, dirs, t_edges, white_background, key=None, noise=0.0,
-              times=None):
-  """Queries the NeRF at interval midpoints and composites. Returns render's dict.
+              times=None, band_fraction=None):
+  """Queries the NeRF at interval midpoints and composites. Returns render's
+  dict plus 'sigma' [..., N], the densities.
 
   times: [..., 1] per-ray time for a dynamic field (None for a static one).
+  band_fraction: FreeNeRF's P.E. mask position (models.band_weights), or None.
   """
   t_mid = render.interval_midpoints(t_edges)
   pts = origins[..., None, :] + t_mid[..., None] * dirs[..., None, :]
   vdirs = jnp.broadcast_to(dirs[..., None, :], pts.shape)
-  if times is None:
-    sigma, rgb = model.apply({"params": params}, pts, vdirs, key, noise)
-  else:
-    sigma, rgb = model.apply({"params": params}, pts, vdirs, key, noise,
-                             times=times[..., None, :])
-  return render.volume_render(sigma, rgb, t_edges, white_background)
+  extra = {} if band_fraction is None else {"band_fraction": band_fraction}
+  if times is not None:
+    extra["times"] = times[..., None, :]
+  sigma, rgb = model.apply({"params": params}, pts, vdirs, key, noise, **extra)
+  out = render.volume_render(sigma, rgb, t_edges, white_background)
+  out["sigma"] = sigma
+  return out
 
 
 def render_rays(model, sampler_cfg, params, origins, dirs, key, *, near, far,
                 white_background, randomized, noise=0.0, guide: Optional[Guide] = None,
-                times=None, window=None):
+                times=None, window=None, coarse_params=None, band_fraction=None):
   """Renders rays with a NeRF stage's sampler.
 
   Args:
-    model: NeRFMLP; sampler_cfg: the stage's `sampler` config.
+    model: a radiance field (models.NeRFMLP or alike); sampler_cfg: the
+      stage's `sampler` config.
     params: model parameters.
+    coarse_params: a second field's parameters for the first pass of an
+      importance sampler (NeRF's coarse MLP); None: `params` serve both.
+    band_fraction: FreeNeRF's P.E. mask position passed to the field, or None.
     origins, dirs: [R, 3] rays (dirs unit length).
     key: PRNG key for jitter and density noise, or per-ray keys [R, 2].
     near, far: scalar bounds.
@@ -101,19 +103,24 @@ def render_rays(model, sampler_cfg, params, origins, dirs, key, *, near, far,
   Returns:
     list of render dicts, coarse first; the last is the final rendering.
   """
+  spec = samplers.SAMPLERS.get(sampler_cfg.kind, "sampler.kind")
   k_s, k_n, k_f, k_n2 = rng.split(key, 4)
   shape = origins.shape[:-1]
   guide_depth = None
-  if uses_guide(sampler_cfg):
+  if spec.guided:
     guide_depth, _ = ray_field_depth(guide, origins, dirs)
     guide_depth = jax.lax.stop_gradient(guide_depth)
   t = sample_edges(sampler_cfg, k_s, shape, near, far, guide_depth, randomized, window)
-  out = [composite(model, params, origins, dirs, t, white_background, k_n, noise, times)]
-  if sampler_cfg.kind == "hierarchical":
+  first = params if coarse_params is None else coarse_params
+  out = [composite(model, first, origins, dirs, t, white_background, k_n, noise, times,
+                   band_fraction)]
+  if spec.importance:
     t_fine = samplers.hierarchical(k_f, t, out[0]["weights"], sampler_cfg.num_samples,
                                    randomized)
+    if spec.merge_coarse:
+      t_fine = samplers.merge_edges(jax.lax.stop_gradient(t), t_fine)
     out.append(composite(model, params, origins, dirs, t_fine, white_background, k_n2, noise,
-                         times))
+                         times, band_fraction))
   return out
 
 
@@ -163,18 +170,22 @@ def in_blocks(fn, block_rays: int, *rays):
 
 
 def make_eval_fn(model, sampler_cfg, *, near, far, white_background, guide_model=None,
-                 radius=None, block_rays: int = 0):
-  """A jitted (params, guide_params, origins, dirs[, times, window]) -> {rgb,
-  depth, depth_max, acc} for held-out rendering; compiled once and reused.
-  block_rays: see in_blocks (config eval.block_rays)."""
+                 geometry=Geometry.SPHERE, radius=0.0, block_rays: int = 0):
+  """A jitted (params, guide_params, origins, dirs[, times, window,
+  coarse_params, band_fraction]) -> {rgb, depth, depth_max, acc} for held-out rendering;
+  compiled once and reused. block_rays: see in_blocks (config eval.block_rays)."""
   @jax.jit
-  def fn(params, guide_params, o, d, times=None, window=None):
-    guide = Guide(guide_model, guide_params, radius) if guide_model is not None else None
+  def fn(params, guide_params, o, d, times=None, window=None, coarse_params=None,
+         band_fraction=None):
+    guide = None
+    if guide_model is not None:
+      guide = Guide(guide_model, guide_params, geometry, radius)
 
     def render_block(o, d, times):
       out = render_rays(model, sampler_cfg, params, o, d, jax.random.PRNGKey(0), near=near,
                         far=far, white_background=white_background, randomized=False,
-                        guide=guide, times=times, window=window)[-1]
+                        guide=guide, times=times, window=window,
+                        coarse_params=coarse_params, band_fraction=band_fraction)[-1]
       return {"rgb": out["rgb"], "depth": render.normalized_depth(out["depth"], out["acc"]),
               "depth_max": out["depth_max"], "acc": out["acc"]}
     return in_blocks(render_block, block_rays, o, d, times)
