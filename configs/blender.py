@@ -6,8 +6,10 @@ Variants (the string after the colon):
                        CPU-sized models and a wall-clock budget (see README)
   lego_oneside[_cpu]   the 14 one-side lego views (L=5, s=1; lambda 0.01)
   lego_all[_cpu]       all 100 training views (the upper reference)
-Append `_nerf` to any variant for the vanilla-NeRF baseline (same Hi model,
-stratified samples, no regulariser).
+Append a method's name to any variant for that method on the same views
+(halo_jax.methods, docs/baselines.md): `_nerf_tuned` (alias `_nerf`: the same
+Hi model, stratified samples, no regulariser), `_nerf_paper`, `_freenerf`,
+`_halo+freenerf`; without one, HALO.
 
 The scene folder defaults to $HALO_DATA/nerf_synthetic/<scene> with HALO_DATA
 defaulting to ../shared/data; override with --config.data.root=PATH.
@@ -51,7 +53,7 @@ def get_config(arg: str = "lego_8view"):
     c.data.train_views = "all"
   else:
     raise ValueError(f"unknown variant {arg!r}: use <scene>_8view, lego_oneside or "
-                     "<scene>_all, optionally with _cpu and/or _nerf")
+                     "<scene>_all, optionally with _cpu and a method name")
   if cpu:
     c.data.factor = 8
     c.data.test_views = "every:8"

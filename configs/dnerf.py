@@ -4,8 +4,9 @@ Variants (the string after the colon):
   lego        the paper's few-shot protocol (every 8th training image, the 20
               test views) with full-size models
   lego_cpu    the same views, CPU-sized models and a wall-clock budget
-Append `_nerf` for the baseline: the same dynamic Hi model trained alone,
-without the Lo model's regulariser (and not started from it).
+Append a method's name for that method (halo_jax.methods): `_nerf_tuned`
+(alias `_nerf`: the same dynamic Hi model trained alone, without the Lo
+model's regulariser and not started from it).
 
 HALO here has no ray field (SPEC sec. 5: querying the Lo field is cheap): Lo is
 a deformation field with low frequencies in x and t; Hi is the same model with
@@ -36,8 +37,8 @@ def _dynamic(c):
   c.hi.encoding.update(L=10, scale=1.0, time_L=8)
   # Hi trains from scratch, as the baseline does (precrop included), and Lo
   # acts only through L_empty (SPEC sec. 5). Started as a copy of Lo instead
-  # (the static scenes' choice), Hi kept Lo's errors on the frames Lo fits
-  # worst: 20.73 dB against 21.26 from scratch (README, D-NeRF).
+  # (the static scenes' choice), Hi keeps Lo's errors on the frames Lo fits
+  # worst (README, D-NeRF).
   c.hi.init_from_lo = False
   c.hi.encoding.with_lo = False
   c.hi.precrop_steps = c.lo.precrop_steps
@@ -52,7 +53,7 @@ def get_config(arg: str = "lego"):
   parts, flags, method = methods.split_variant(arg)
   cpu = "cpu" in flags
   if parts != ["lego"]:
-    raise ValueError(f"unknown variant {arg!r}: use lego or lego_cpu, optionally with _nerf")
+    raise ValueError(f"unknown variant {arg!r}: use lego or lego_cpu, optionally with a method name")
   c = defaults.base_config()
   c.data.update(kind="dnerf", factor=1, white_background=False, train_views="every:8",
                 test_views="all",

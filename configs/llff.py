@@ -6,7 +6,8 @@ Variants (the string after the colon):
   fern_4view_cpu   the same views, CPU-sized models and a wall-clock budget
 Append `_joint` for the joint scheme (the ray field trained with Hi-NeRF,
 L_consist to Lo-NeRF's depth, the sample window falling from 1 to r), or
-`_nerf` for the NeRF baseline (the Hi model alone, stratified samples).
+a method's name (halo_jax.methods): `_nerf_tuned` (alias `_nerf`: the Hi
+model alone, stratified samples), `_nerf_paper`, `_freenerf`.
 Other scenes: --config.data.root=.../nerf_llff_data/<scene> with your own
 --config.data.train_views / test_views (the paper's lists for flower, leaves
 and orchids are in FOUR_VIEWS).
@@ -38,7 +39,7 @@ def get_config(arg: str = "fern_4view"):
   parts, flags, method = methods.split_variant(arg, ("cpu", "joint"))
   cpu = "cpu" in flags
   if len(parts) != 2 or parts[1] != "4view" or parts[0] not in FOUR_VIEWS:
-    raise ValueError(f"unknown variant {arg!r}: use <scene>_4view[_cpu][_nerf] with scene "
+    raise ValueError(f"unknown variant {arg!r}: use <scene>_4view[_cpu][_joint][_<method>] with scene "
                      f"in {sorted(FOUR_VIEWS)}")
   scene = parts[0]
   c = defaults.base_config()

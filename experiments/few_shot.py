@@ -23,7 +23,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # pylint: disable=g-import-not-at-top
 from ml_collections import config_flags
 
-from halo_jax import datasets, methods, pipeline
+from halo_jax import datasets, methods, pipeline, user_errors, workdir_lock
 
 FLAGS = flags.FLAGS
 config_flags.DEFINE_config_file("config", None, "HALO config (path[:variant]).",
@@ -101,6 +101,13 @@ def write_report(results, workdir, n_test):
 def main(argv):
   del argv
   logging.set_verbosity(logging.WARNING)
+  # one launch per workdir; bad input is one line and exit 2, not a traceback
+  with user_errors.reported(), workdir_lock.hold(FLAGS.workdir):
+    run(FLAGS.config)
+
+
+def run(config):
+  """The experiment in FLAGS.workdir (locked by main)."""
   config = FLAGS.config
   os.makedirs(FLAGS.workdir, exist_ok=True)
   results_path = os.path.join(FLAGS.workdir, "results.json")

@@ -18,7 +18,7 @@ import os
 from absl import app, flags, logging
 from ml_collections import config_flags
 
-from halo_jax import datasets, pipeline, plots, stages, tuning
+from halo_jax import datasets, pipeline, plots, stages, tuning, user_errors, workdir_lock
 from halo_jax.stages import radiance
 
 FLAGS = flags.FLAGS
@@ -107,6 +107,13 @@ def report(rows, workdir):
 def main(argv):
   del argv
   logging.set_verbosity(logging.WARNING)
+  # one launch per workdir; bad input is one line and exit 2, not a traceback
+  with user_errors.reported(), workdir_lock.hold(FLAGS.workdir):
+    run(FLAGS.config)
+
+
+def run(config):
+  """The experiment in FLAGS.workdir (locked by main)."""
   os.makedirs(FLAGS.workdir, exist_ok=True)
   config = FLAGS.config
   points = parse_sweeps(config, FLAGS.sweep)

@@ -77,8 +77,7 @@ def step_throughput(loss_fn, cfg, params, data, rays_per_step, samples_per_ray):
   tx = loop.optimizer(cfg)
   step = loop.make_step(loss_fn, tx, cfg.microbatches)
   params = jax.tree_util.tree_map(jnp.copy, params)  # the step donates its input
-  state = dict(params=params, opt_state=tx.init(params), step=jnp.int32(0),
-               skipped=jnp.int32(0))
+  state = loop.initial_state(params, tx)
   key = jax.random.PRNGKey(0)
   # XLA counts a scan's body once, so FLOPs come from the whole-batch step:
   # the parts do the same arithmetic.

@@ -18,7 +18,7 @@ import os
 from absl import app, flags, logging
 from ml_collections import config_flags
 
-from halo_jax import datasets, pipeline, plots, tuning
+from halo_jax import datasets, pipeline, plots, tuning, user_errors, workdir_lock
 
 FLAGS = flags.FLAGS
 config_flags.DEFINE_config_file("config", None, "HALO config (path[:variant]).",
@@ -62,6 +62,13 @@ def report(result, workdir):
 def main(argv):
   del argv
   logging.set_verbosity(logging.WARNING)
+  # one launch per workdir; bad input is one line and exit 2, not a traceback
+  with user_errors.reported(), workdir_lock.hold(FLAGS.workdir):
+    run(FLAGS.config)
+
+
+def run(config):
+  """The experiment in FLAGS.workdir (locked by main)."""
   os.makedirs(FLAGS.workdir, exist_ok=True)
   dataset = datasets.load(FLAGS.config.data, FLAGS.workdir)
   result = tuning.tune(FLAGS.config, FLAGS.workdir, dataset, pipeline.run, FLAGS.full_grid)

@@ -38,6 +38,9 @@ def _train(steps, batch_rays, lr_init, lr_final):
       # schedule that does not depend on the step cap (the original NeRF's)
       lr_decay_steps=0,
       max_seconds=0.0,        # stop a stage after this much training time (0: no cap)
+      # stop with an error after this many non-finite steps in a row (each is
+      # skipped, leaving the parameters as they were; 0: never stop)
+      max_nonfinite=20,
       checkpoint_every=1000,  # steps between checkpoints (and one at the end)
       log_every=100,          # steps between metrics.jsonl lines
       eval_every=0,           # steps between held-out evaluations (0: only at the end)
@@ -154,21 +157,9 @@ def split_variant(arg: str, suffixes=("cpu", "nerf")):
   return parts, flags
 
 
-def base_config() -> ml_collections.ConfigDict:
-  """All fields, set to the paper's full-resolution Blender protocol."""
-  c = ml_collections.ConfigDict()
-  c.seed = 0
-  # The method (halo_jax.methods) that made this config, for the record; the
-  # pipeline reads only the stage sections.
-  c.method = "halo"
-  c.stages = "lo,ray,hi"      # the stages to train now (the ones they need are restored)
-  c.final_stage = "hi"        # the stage whose field the method outputs
-  # Training-time budget in seconds for the whole pipeline (0: none). When set,
-  # each needed stage gets max_seconds = budget_s * its share (normalised over
-  # the stages the run needs), so NeRF (hi alone) and HALO get the same time.
-  c.budget_s = 0.0
-  c.budget_shares = ml_collections.ConfigDict(dict(lo=0.25, ray=0.10, hi=0.65))
-  c.data = ml_collections.ConfigDict(dict(
+def _data():
+  """The scene and its views (data.kind: a datasets.LOADERS entry)."""
+  return ml_collections.ConfigDict(dict(
       kind="blender",          # 'blender' | 'procedural' | 'dnerf' | 'stanford_lf' | 'llff'
       root="",                 # scene folder, e.g. ../shared/data/nerf_synthetic/lego
       factor=2,                # integer downscale (2: 400x400, 8: 100x100)
@@ -185,24 +176,23 @@ def base_config() -> ml_collections.ConfigDict:
       disparity_px=(-2.0, 1.0),
       grid_signs=(-1.0, -1.0),
   ))
-  c.lo = _radiance_stage(L=5, scale=32, use_viewdirs=False, steps=8000, num_samples=128,
-                         sampler="stratified")
-  c.hi = _hi_extras(_radiance_stage(L=10, scale=1, use_viewdirs=True, steps=80000,
-                                    num_samples=128, sampler="depth_guided"))
-  c.hi.lr_final = 5e-5
-  c.hi.precrop_steps = 0
-  c.hi.empty.weight = 0.1
-  # auto: choose lo.encoding.L / scale with the frequency criterion before
-  # training (halo_jax/tuning.py; the search runs in <workdir>/tune once).
-  c.lo.encoding.auto = False
-  c.parallel = ml_collections.ConfigDict(dict(
+
+
+def _parallel():
+  """Data parallelism and multi-host settings (halo_jax.parallel)."""
+  return ml_collections.ConfigDict(dict(
       data_parallel=False,   # shard each step's rays over all local (or all hosts') devices
       multihost=False,       # jax.distributed.initialize before training
       coordinator="",        # host:port of process 0 ('' : from the cluster environment)
       num_processes=1,
       process_id=0,
+      heartbeat_s=100,       # a process whose peer is silent this long is terminated
   ))
-  c.tune = ml_collections.ConfigDict(dict(
+
+
+def _tune():
+  """The frequency search (halo_jax.tuning)."""
+  return ml_collections.ConfigDict(dict(
       grid="10:1,8:1,6:1,5:1,5:4,5:8,5:16,5:32",  # L:s points, searched high to low frequency
       threshold=25.0,        # the paper's threshold on the criterion
       num_pairs=8,           # nearby view pairs rendered per point
@@ -212,18 +202,25 @@ def base_config() -> ml_collections.ConfigDict:
       lo_seconds=0.0,        # training time of each short Lo-NeRF (0: lo.max_seconds)
       lo_steps=0,            # step cap of each short Lo-NeRF (0: lo.steps)
   ))
-  c.ray = ml_collections.ConfigDict(_train(24000, 4096, 5e-4, 5e-6))
-  c.ray.kind = "ray_field"
-  c.ray.encoding = ml_collections.ConfigDict(dict(L=10, scale=32.0))
-  c.ray.model = _model()
-  c.ray.radius = 0.0              # sphere of the ray parametrisation (0: camera radius)
-  c.ray.depth_target = "max_weight"  # or 'expected' (Lo-NeRF's normalised expected depth)
-  c.ray.random_fraction = 0.5     # share of each batch drawn from random hemisphere rays
-  c.ray.bank_rays = 262144        # random rays rendered once by the frozen Lo-NeRF
-  c.ray.lo_samples = 0            # samples for the Lo-NeRF targets (0: Lo's own count)
-  # The NeRF baselines (methods/): stratified samples per ray of nerf_tuned.
-  c.baseline = ml_collections.ConfigDict(dict(num_samples=64))
-  c.eval = ml_collections.ConfigDict(dict(
+
+
+def _ray_stage():
+  """The ray-field stage (trainer 'ray_field')."""
+  r = ml_collections.ConfigDict(_train(24000, 4096, 5e-4, 5e-6))
+  r.kind = "ray_field"
+  r.encoding = ml_collections.ConfigDict(dict(L=10, scale=32.0))
+  r.model = _model()
+  r.radius = 0.0              # sphere of the ray parametrisation (0: camera radius)
+  r.depth_target = "max_weight"  # or 'expected' (Lo-NeRF's normalised expected depth)
+  r.random_fraction = 0.5     # share of each batch drawn from random hemisphere rays
+  r.bank_rays = 262144        # random rays rendered once by the frozen Lo-NeRF
+  r.lo_samples = 0            # samples for the Lo-NeRF targets (0: Lo's own count)
+  return r
+
+
+def _eval():
+  """Held-out rendering and scoring."""
+  return ml_collections.ConfigDict(dict(
       chunk=4096,          # rays per jitted rendering call
       # Render each chunk in blocks of this many rays, one after another (0: the
       # whole chunk at once, for GPUs). On CPU blocks that fit in cache are
@@ -234,28 +231,58 @@ def base_config() -> ml_collections.ConfigDict:
       lpips=True,          # LPIPS-VGG in the final evaluation (needs H, W >= 32)
       flicker_frames=24,   # dynamic scenes: frames of the fixed-camera video for flicker
   ))
+
+
+def base_config() -> ml_collections.ConfigDict:
+  """All fields, set to the paper's full-resolution Blender protocol."""
+  c = ml_collections.ConfigDict()
+  c.seed = 0
+  # The method (halo_jax.methods) that made this config, for the record; the
+  # pipeline reads only the stage sections.
+  c.method = "halo"
+  c.stages = "lo,ray,hi"      # the stages to train now (the ones they need are restored)
+  c.final_stage = "hi"        # the stage whose field the method outputs
+  # Training-time budget in seconds for the whole pipeline (0: none). When set,
+  # each needed stage gets max_seconds = budget_s * its share (normalised over
+  # the stages the run needs), so NeRF (hi alone) and HALO get the same time.
+  c.budget_s = 0.0
+  c.budget_shares = ml_collections.ConfigDict(dict(lo=0.25, ray=0.10, hi=0.65))
+  c.data = _data()
+  c.lo = _radiance_stage(L=5, scale=32, use_viewdirs=False, steps=8000, num_samples=128,
+                         sampler="stratified")
+  c.hi = _hi_extras(_radiance_stage(L=10, scale=1, use_viewdirs=True, steps=80000,
+                                    num_samples=128, sampler="depth_guided"))
+  c.hi.lr_final = 5e-5
+  c.hi.precrop_steps = 0
+  c.hi.empty.weight = 0.1
+  # auto: choose lo.encoding.L / scale with the frequency criterion before
+  # training (halo_jax/tuning.py; the search runs in <workdir>/tune once).
+  c.lo.encoding.auto = False
+  c.parallel = _parallel()
+  c.tune = _tune()
+  c.ray = _ray_stage()
+  # The NeRF baselines (methods/): stratified samples per ray of nerf_tuned.
+  c.baseline = ml_collections.ConfigDict(dict(num_samples=64))
+  c.eval = _eval()
   return c
 
 
 def cpu_sized(c: ml_collections.ConfigDict, budget_s: float) -> ml_collections.ConfigDict:
   """Shrinks a config to fit `budget_s` seconds of training on 2 CPU cores.
 
-  The HALO stages share the budget as `budget_shares` says. Measured choices
-  (lego 8-view, 100x100; README "CPU protocol"):
+  The HALO stages share the budget as `budget_shares` says. The choices were
+  measured on lego 8-view at 100x100 (README, "CPU protocol"):
   - Lo-NeRF: 128x4 MLP, 32 samples, 4x the paper's learning rate and P.E.
     L=5, s=1 (the paper's one-side Lo setting) instead of s=32: at s=32 the
     nearly linear features need thousands of steps the budget does not have.
-    90 s Lo-NeRFs (experiments/tune_frequency.py grid): s=32 17.4 dB held out,
-    s=8 19.1, s=1 20.6; whole HALO at 600 s: s=8 21.60 dB, s=1 22.45.
   - Hi-NeRF: the same 128x4 trunk, its Hi-P.E. preceded by Lo's
     (`encoding.with_lo`) and initialised as an exact copy of Lo-NeRF, then
-    refined with 32 samples from the ray field (r=0.3). From scratch, 200 s of
-    Hi training ended 0.1 dB below the Lo-NeRF it started from; from the copy,
-    1.2 dB above it.
+    refined with 32 samples from the ray field (r=0.3): from scratch, the
+    budget's Hi training does not get back to where Lo-NeRF already is.
   - No view directions for either NeRF: with 8 views at 100x100 there is too
     little data to learn view dependence, and Lo-NeRF has none to copy.
-  - The NeRF baseline (`as_nerf_baseline`) uses the same 128x4 Hi model with 64
-    stratified samples.
+  - The NeRF baseline (methods/nerf_tuned.py) uses the same 128x4 Hi model
+    with 64 stratified samples.
   Steps are caps that the time budget normally reaches first; the learning
   rate decays over them.
   """
@@ -278,8 +305,8 @@ def cpu_sized(c: ml_collections.ConfigDict, budget_s: float) -> ml_collections.C
   c.hi.init_from_lo = True
   c.hi.sampler.num_samples = 32
   c.hi.empty.update(num_rays=256, num_samples=32, bank_rays=32768)
-  # 4x the paper's rate, for Hi-NeRF and the NeRF baseline alike: at this budget
-  # both gain from it (lego, 600 s: NeRF +1.45 dB, HALO +0.60 dB over 5e-4).
+  # 4x the paper's rate, for Hi-NeRF and the NeRF baseline alike: a few
+  # thousand steps are all the budget allows, and both gain from it (README).
   c.hi.update(batch_rays=1024, steps=6000, lr_init=2e-3, lr_final=2e-4, checkpoint_every=500,
               log_every=50)
   for name in ("lo", "hi"):

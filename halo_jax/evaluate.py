@@ -6,7 +6,7 @@ import imageio.v3 as iio
 import jax.numpy as jnp
 import numpy as np
 
-from halo_jax import metrics
+from halo_jax import metrics, parallel
 from halo_jax import raycast
 
 
@@ -57,7 +57,7 @@ def flicker(eval_fn, views, chunk, num_frames, out_dir=None):
   d = np.broadcast_to(d[:1], (num_frames, *d.shape[1:]))
   t = np.broadcast_to(times[:, None, None, None], (*o.shape[:3], 1))
   frames = raycast.render_chunked(eval_fn, o, d, chunk, t)["rgb"]
-  if out_dir:
+  if out_dir and parallel.is_primary():
     os.makedirs(out_dir, exist_ok=True)
     strip = (np.clip(np.concatenate(list(frames), 1), 0, 1) * 255).round().astype(np.uint8)
     iio.imwrite(os.path.join(out_dir, "flicker.png"), strip)
@@ -75,6 +75,8 @@ def evaluate(eval_fn, views, chunk, out_dir, near, far, save_images=True, with_l
   result["num_views"] = len(views.names)
   result["per_view"] = {n: {k: v[i] for k, v in per_metric.items()}
                         for i, n in enumerate(views.names)}
+  if not parallel.is_primary():  # one writer per job
+    return result
   os.makedirs(out_dir, exist_ok=True)
   with open(os.path.join(out_dir, "metrics.json"), "w") as f:
     json.dump(result, f, indent=1)

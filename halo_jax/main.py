@@ -10,7 +10,7 @@ import json
 from absl import app, flags, logging
 from ml_collections import config_flags
 
-from halo_jax import parallel, pipeline
+from halo_jax import parallel, pipeline, user_errors
 
 FLAGS = flags.FLAGS
 config_flags.DEFINE_config_file("config", None, "Config file (path[:variant]).",
@@ -22,14 +22,10 @@ flags.mark_flags_as_required(["config", "workdir"])
 def main(argv):
   del argv
   logging.set_verbosity(logging.WARNING)  # orbax logs every save at INFO
-  parallel.initialize(FLAGS.config.parallel)
-  infos = pipeline.run(FLAGS.config, FLAGS.workdir)
-  print(f"{'stage':6} {'steps':>6} {'train s':>8} {'PSNR':>7} {'SSIM':>6} {'LPIPS':>6}")
-  for name, info in infos.items():
-    ev = info.get("eval", {})
-    nan = float("nan")
-    print(f"{name:6} {info['step']:6d} {info['wall_s']:8.1f} {ev.get('psnr', nan):7.2f} "
-          f"{ev.get('ssim', nan):6.3f} {ev.get('lpips', nan):6.3f}")
+  with user_errors.reported():
+    parallel.initialize(FLAGS.config.parallel)
+    infos = pipeline.run(FLAGS.config, FLAGS.workdir)
+  print(pipeline.table(infos))
   print(json.dumps({"workdir": FLAGS.workdir}))
 
 

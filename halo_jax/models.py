@@ -50,7 +50,7 @@ def band_weights(band_fraction, num_bands: int, dims: int):
   return jnp.repeat(jnp.clip(p - k, 0.0, 1.0), dims)
 
 
-def _masked_pe(x, freqs, scale, band_fraction):
+def masked_positional_encoding(x, freqs, scale, band_fraction):
   """positional_encoding(x) with FreeNeRF's mask on its sin and cos halves
   (no mask when band_fraction is None)."""
   pe = encoding.positional_encoding(x, freqs, scale)
@@ -115,7 +115,7 @@ class NeRFMLP(nn.Module):
     """
     shape = points.shape[:-1]
     points = _rows(points)
-    x = _masked_pe(points, self.pos_freqs, self.pos_scale, band_fraction)
+    x = masked_positional_encoding(points, self.pos_freqs, self.pos_scale, band_fraction)
     if self.base_freqs > 0:
       x = jnp.concatenate(
           [encoding.positional_encoding(points, self.base_freqs, self.base_scale), x], -1)
@@ -125,7 +125,7 @@ class NeRFMLP(nn.Module):
     if self.use_viewdirs:
       feat = nn.Dense(self.width, name="bottleneck")(h)
       viewdirs = _rows(jnp.broadcast_to(viewdirs, (*shape, viewdirs.shape[-1])))
-      d = _masked_pe(viewdirs, self.dir_freqs, 1.0, band_fraction)
+      d = masked_positional_encoding(viewdirs, self.dir_freqs, 1.0, band_fraction)
       h = nn.relu(nn.Dense(self.width // 2, name="view")(jnp.concatenate([feat, d], -1)))
     rgb = nn.sigmoid(nn.Dense(3, name="rgb")(h))
     return sigma.reshape(shape), rgb.reshape(*shape, 3)

@@ -20,15 +20,38 @@ BATCH = "batch"
 
 
 def initialize(cfg) -> None:
-  """Joins a multi-host job when cfg.multihost (coordinator from cfg or the
-  cluster's environment); a no-op otherwise."""
+  """Joins a multi-process job when cfg.multihost (coordinator from cfg or the
+  cluster's environment); a no-op otherwise.
+
+  CPU processes reduce over gloo. A process whose peer stops sending
+  heartbeats for cfg.heartbeat_s seconds is terminated by the JAX
+  distributed service with a message saying another task died, so a lost
+  peer ends the job instead of hanging it.
+  """
   if not cfg.multihost:
     return
-  kwargs = {}
+  jax.config.update("jax_cpu_collectives_implementation", "gloo")
+  kwargs = dict(heartbeat_timeout_seconds=int(cfg.get("heartbeat_s", 100)))
   if cfg.coordinator:
-    kwargs = dict(coordinator_address=cfg.coordinator, num_processes=cfg.num_processes,
+    kwargs.update(coordinator_address=cfg.coordinator, num_processes=cfg.num_processes,
                   process_id=cfg.process_id)
   jax.distributed.initialize(**kwargs)
+
+
+def is_primary() -> bool:
+  """Whether this process writes the job's files (process 0)."""
+  return jax.process_index() == 0
+
+
+def to_local(tree):
+  """Arrays replicated over several processes' devices as this process's
+  copy, so that host-side code (rendering, saving, the next stage) can use
+  them; other leaves unchanged."""
+  def local(x):
+    if isinstance(x, jax.Array) and not x.is_fully_addressable:
+      return x.addressable_data(0)
+    return x
+  return jax.tree_util.tree_map(local, tree)
 
 
 def make_mesh(cfg) -> Optional[Mesh]:
@@ -48,6 +71,9 @@ def replicate(tree, mesh: Optional[Mesh]):
   """Places every leaf of `tree` on every device of `mesh` (identity without one)."""
   if mesh is None:
     return tree
+  if jax.process_count() > 1:
+    # every process holds the same values; each places them on its devices
+    tree = jax.tree_util.tree_map(np.asarray, tree)
   return jax.device_put(tree, NamedSharding(mesh, PartitionSpec()))
 
 

@@ -7,11 +7,12 @@ is trained by that trainer; the trainer says which finished stages it reads
 not in the list is restored from the workdir, where an earlier launch left
 it. Nothing here branches on a model, sampler, method or data kind.
 """
+import contextlib
 import copy
 import json
 import os
 
-from halo_jax import datasets, parallel, stages, tuning, validate
+from halo_jax import datasets, parallel, stages, tuning, validate, workdir_lock
 from halo_jax.stages import base, loop
 from halo_jax.stages.order import needed, parse_stages, stage_names
 from halo_jax.stages.state import load, save, stage_dir
@@ -59,11 +60,19 @@ def _restore(config, name, dataset, workdir):
 def run(config, workdir: str, dataset=None) -> dict:
   """Runs `config.stages` in `workdir`; returns {stage: info} for the stages run.
 
-  The config is validated before any work (halo_jax.validate). info holds the
-  stage's training seconds ('wall_s'), steps, skipped steps and, for stages
-  that render images, the held-out evaluation.
+  The config is validated before any work (halo_jax.validate), and the
+  workdir is locked for this process (workdir_lock: a second launch into it
+  is refused). info holds the stage's training seconds ('wall_s'), steps,
+  skipped steps and, for stages that render images, the held-out evaluation.
   """
   validate.validate(config)
+  # In a multi-process job the processes share the workdir; process 0 holds it.
+  held = workdir_lock.hold(workdir) if parallel.is_primary() else contextlib.nullcontext()
+  with held:
+    return _run(config, workdir, dataset)
+
+
+def _run(config, workdir, dataset):
   check_workdir(config, workdir)
   config = with_budget(config)
   dataset = dataset or datasets.load(config.data, workdir)
@@ -90,10 +99,27 @@ def run(config, workdir: str, dataset=None) -> dict:
     wall += info["wall_s"]
     info.update(step=int(state.step), cumulative_wall_s=wall)
     save(workdir, state)
-    with open(_info_path(workdir, name), "w") as f:
-      json.dump(info, f, indent=1)
+    if parallel.is_primary():
+      with open(_info_path(workdir, name), "w") as f:
+        json.dump(info, f, indent=1)
     states[name], infos[name] = state, info
   return infos
 
 
-__all__ = ["needed", "parse_stages", "run", "stage_names", "with_budget", "stages"]
+def _cell(value, fmt, width):
+  """A metric, or '-' where the stage has none (the ray field has no images)."""
+  return f"{'-':>{width}}" if value is None else f"{value:{width}{fmt}}"
+
+
+def table(infos) -> str:
+  """The stages' steps, training seconds and held-out metrics, one line each."""
+  lines = [f"{'stage':6} {'steps':>6} {'train s':>8} {'PSNR':>7} {'SSIM':>6} {'LPIPS':>6}"]
+  for name, info in infos.items():
+    ev = info.get("eval", {})
+    lines.append(f"{name:6} {info['step']:6d} {info['wall_s']:8.1f} "
+                 f"{_cell(ev.get('psnr'), '.2f', 7)} {_cell(ev.get('ssim'), '.3f', 6)} "
+                 f"{_cell(ev.get('lpips'), '.3f', 6)}")
+  return "\n".join(lines)
+
+
+__all__ = ["needed", "parse_stages", "run", "stage_names", "table", "with_budget", "stages"]

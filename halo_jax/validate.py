@@ -34,6 +34,8 @@ def _check_training(cfg, name):
         f"{name}.batch_rays={cfg.batch_rays}")
   for field in ("checkpoint_every", "log_every"):
     _positive_int(cfg[field], f"{name}.{field}")
+  check(isinstance(cfg.get("max_nonfinite", 0), int) and cfg.get("max_nonfinite", 0) >= 0,
+        f"{name}.max_nonfinite={cfg.get('max_nonfinite')!r}: must be an integer >= 0")
   check(cfg.max_seconds >= 0, f"{name}.max_seconds={cfg.max_seconds!r}: must be >= 0")
 
 
@@ -74,12 +76,15 @@ def validate(config) -> None:
   """Raises ConfigError (one line naming the field) for a config that cannot
   run; returns None for one that can."""
   dspec = datasets.spec_of(config.data)
+  for name in order.stage_names(config):  # names the field before the graph reads it
+    base.trainer_of(config, name)
+    _check_sampler(config[name], name)
   names = order.needed(config)
   final = config.get("final_stage", "")
   check(final in order.stage_names(config),
         f"final_stage={final!r}: must be one of {list(order.stage_names(config))}")
   every = tuple(dict.fromkeys(names + order.needed(config, final)))
-  for name in every:
+  for name in reversed(every):  # the requested stage's own complaint first
     trainer = base.trainer_of(config, name)
     check(dspec.geometry in trainer.geometries,
           f"{name}.kind={config[name].kind!r} trains on {geometry.names(trainer.geometries)} "

@@ -154,6 +154,7 @@ def test_flicker_closed_forms():
     metrics.temporal_flicker(linear[:2])
 
 
+@pytest.mark.slow
 def test_halo_for_time_smoke(scene_root, tmp_path):
   path = write_npz(str(tmp_path / "d.npz"), scene_root)
   c = dynamic_config(path)

@@ -83,6 +83,7 @@ def _tiny_tune(config, scene_root, grid, threshold):
   return config
 
 
+@pytest.mark.slow
 def test_search_stops_at_first_point_below_threshold(config, scene_root, tmp_path):
   from halo_jax import datasets
   _tiny_tune(config, scene_root, "6:1,3:8", 1e9)
@@ -100,6 +101,7 @@ def test_search_stops_at_first_point_below_threshold(config, scene_root, tmp_pat
   assert saved["chosen"] == none["chosen"]
 
 
+@pytest.mark.slow
 def test_auto_encoding_searches_then_trains_lo_with_the_choice(config, scene_root, tmp_path):
   _tiny_tune(config, scene_root, "6:1,3:8", 0.0)
   config.stages = "lo"
@@ -111,6 +113,7 @@ def test_auto_encoding_searches_then_trains_lo_with_the_choice(config, scene_roo
   assert os.path.exists(os.path.join(wd, "tune", "results.json"))
 
 
+@pytest.mark.slow
 def test_sweep_cli_two_points(scene_root, tmp_path):
   wd = str(tmp_path / "sweep")
   cmd = [sys.executable, "experiments/sweep.py", "--config=configs/default.py", f"--workdir={wd}",

@@ -138,6 +138,7 @@ def test_other_size_view_named(tmp_path):
 
 @pytest.mark.parametrize("baseline,full_range,random_background",
                          [(False, 0.0, False), (False, 0.5, True), (True, 0.0, False)])
+@pytest.mark.slow
 def test_joint_and_baseline_smoke(tmp_path, baseline, full_range, random_background):
   from halo_jax.methods import nerf_tuned
   root = write_light_field(str(tmp_path / "lf"))
@@ -192,6 +193,7 @@ def max_leaf_difference(a, b):
                              strict=True))
 
 
+@pytest.mark.slow
 def test_random_rays_train_the_ray_field_only(tmp_path):
   """L_consist on random rays between the cameras moves the ray field's
   gradient and leaves the radiance field's exactly as it was."""
@@ -203,6 +205,7 @@ def test_random_rays_train_the_ray_field_only(tmp_path):
   assert max_leaf_difference(out[0][1]["ray"], out[16][1]["ray"]) > 1e-6
 
 
+@pytest.mark.slow
 def test_ray_field_colour_head_trains_the_ray_field_only(tmp_path):
   """The ray field's colour loss (on the pixels and, on random rays, towards
   the radiance field's colour) leaves the radiance field's gradient exactly
@@ -224,6 +227,7 @@ def test_ray_field_colour_head_trains_the_ray_field_only(tmp_path):
   assert rgb.shape == (5, 7, 3) and float(rgb.min()) >= -1e-3 and float(rgb.max()) <= 1 + 1e-3
 
 
+@pytest.mark.slow
 def test_nerf_consist_weight_trains_the_radiance_field_only(tmp_path):
   """joint.nerf_consist_weight moves the radiance field's gradient by the
   gradient of w * mean (tau_ray - tau_nerf)^2 with tau_ray fixed, and leaves
@@ -364,6 +368,7 @@ def test_knights_disparity_sign_and_range():
   assert inside > 0.9, (inside, np.percentile(best, [5, 50, 95]), lo_delta, hi_delta)
 
 
+@pytest.mark.slow
 def test_full_range_keeps_the_sample_count_and_rejects_an_empty_window():
   from configs import stanford_lf as cfg_lf
   c = cfg_lf.get_config("scene_cpu")

@@ -84,6 +84,7 @@ def test_bad_llff_input(tmp_path, edit, message):
     datasets.load(llff_config(root).data)
 
 
+@pytest.mark.slow
 def test_forward_facing_stages_smoke(tmp_path):
   root = write_llff(str(tmp_path / "scene"))
   c = llff_config(root)
@@ -105,6 +106,7 @@ def test_fern_split_and_ndc_bounds():
   np.testing.assert_allclose(o[..., 2], -1.0, atol=1e-4)
 
 
+@pytest.mark.slow
 def test_joint_scheme_smoke(tmp_path):
   import json
   root = write_llff(str(tmp_path / "scene"))

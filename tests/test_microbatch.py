@@ -64,6 +64,7 @@ def _train_losses(c, wd):
           if "loss" in r and not r.get("heldout")]
 
 
+@pytest.mark.slow
 def test_microbatched_pipeline_follows_the_whole_batch(scene_root, tmp_path):
   """lo, ray and hi (with L_empty, density noise and precrop) in 4 parts log the
   losses of whole-batch training step for step."""
@@ -82,6 +83,7 @@ def test_microbatched_pipeline_follows_the_whole_batch(scene_root, tmp_path):
   np.testing.assert_allclose([r[2] for r in out[4]], [r[2] for r in out[1]], rtol=1e-4)
 
 
+@pytest.mark.slow
 def test_microbatched_light_field_follows_the_whole_batch(tmp_path):
   root = write_light_field(str(tmp_path / "lf"))
   out = {}

@@ -33,7 +33,7 @@ def _loss_nan_at_steps_1_and_4(params, data, key, step):
 def test_non_finite_loss_or_gradient_leaves_state_untouched():
   tx = optax.adam(0.1)
   params = {"w": jnp.zeros(3)}
-  state = dict(params=params, opt_state=tx.init(params), step=jnp.int32(1), skipped=jnp.int32(0))
+  state = loop.initial_state(params, tx, step=1)
   before = jax.tree_util.tree_map(np.asarray, state)
   step = loop.make_step(_loss_nan_at_steps_1_and_4, tx)
   after, loss, _ = step(state, jnp.ones(3), jax.random.PRNGKey(0))
@@ -44,13 +44,12 @@ def test_non_finite_loss_or_gradient_leaves_state_untouched():
     np.testing.assert_array_equal(a, b)
   # A finite loss with an infinite gradient (sqrt at 0) is skipped as well.
   grad_inf = loop.make_step(lambda p, d, k, s: (jnp.sqrt(jnp.sum(p["w"] * 0.0)), {}), tx)
-  state = dict(params=params, opt_state=tx.init(params), step=jnp.int32(0), skipped=jnp.int32(0))
+  state = loop.initial_state(params, tx)
   after, loss, _ = grad_inf(state, None, jax.random.PRNGKey(0))
   assert float(loss) == 0.0 and int(after["skipped"]) == 1
   # A finite step does update.
   ok = loop.make_step(lambda p, d, k, s: (jnp.sum((p["w"] - 1) ** 2), {}), tx)
-  after, _, _ = ok(dict(params=params, opt_state=tx.init(params), step=jnp.int32(0),
-                        skipped=jnp.int32(0)), None, jax.random.PRNGKey(0))
+  after, _, _ = ok(loop.initial_state(params, tx), None, jax.random.PRNGKey(0))
   assert int(after["skipped"]) == 0 and np.all(np.asarray(after["params"]["w"]) > 0)
 
 
@@ -122,6 +121,7 @@ def _final_params(wd, name):
   return mngr.restore(mngr.latest_step())["params"]
 
 
+@pytest.mark.slow
 def test_sigkill_anywhere_then_resume_matches_uninterrupted_run(scene_root, tmp_path):
   ref, killed = str(tmp_path / "ref"), str(tmp_path / "killed")
   p = _launch(ref, scene_root)

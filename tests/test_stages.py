@@ -20,6 +20,7 @@ def read_log(workdir):
     return [json.loads(line) for line in f]
 
 
+@pytest.mark.slow
 def test_all_stages_then_hi_alone_reuses_earlier_states(config, scene_root, tmp_path):
   config.data.root = scene_root
   config.hi.encoding.with_lo = True
@@ -53,6 +54,7 @@ def test_all_stages_then_hi_alone_reuses_earlier_states(config, scene_root, tmp_
   assert list(infos) == ["hi"] and infos["hi"]["step"] == 8
 
 
+@pytest.mark.slow
 def test_nerf_baseline_needs_no_earlier_stage(config, scene_root, tmp_path):
   from halo_jax.methods import nerf_tuned
   config.data.root = scene_root
@@ -79,6 +81,7 @@ def test_budget_splits_by_share(config):
   assert pipeline.with_budget(config).lo.max_seconds == 25.0  # hi still needs lo's share
 
 
+@pytest.mark.slow
 def test_stages_that_stop_early_leave_their_time_to_the_next(config, scene_root, tmp_path):
   # Lo and the ray field stop at 2 steps, inside their shares of the budget
   # (compile time included: 4.5 s and 6 s on a 2-core machine without
@@ -136,6 +139,7 @@ def test_transfer_from_lo_keeps_input_layer():
   np.testing.assert_array_equal(out["trunk"]["dense_1"]["kernel"], p_lo["trunk"]["dense_1"]["kernel"])
 
 
+@pytest.mark.slow
 def test_cli_runs_one_stage(scene_root, tmp_path):
   wd = str(tmp_path / "cli")
   cmd = [sys.executable, "-m", "halo_jax.main", "--config=configs/default.py", f"--workdir={wd}",

@@ -1,5 +1,6 @@
 """The 2D toy (experiments/toy2d.py): coordinates and a short run."""
 import numpy as np
+import pytest
 
 from experiments import toy2d
 
@@ -11,6 +12,7 @@ def test_upsampled_grid_box_filters_to_the_training_grid():
   assert -1 < g.min() < -0.8 and 0.8 < g.max() < 1
 
 
+@pytest.mark.slow
 def test_short_run_reports_both_fields_and_tasks():
   res, images = toy2d.run(steps=20, seeds=1, width=16, depth=2)
   for key in ("interp_mse", "extrap_mse", "train_mse"):

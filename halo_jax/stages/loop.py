@@ -53,13 +53,17 @@ class MetricsLog:
     os.replace(tmp, self.path)
 
 
-def optimizer(cfg) -> optax.GradientTransformation:
-  """Adam with NeRF's log-linear decay: from lr_init to lr_final over `steps`,
-  or by lr_final / lr_init every `lr_decay_steps` where that is set."""
+def schedule(cfg):
+  """NeRF's log-linear learning rate, step -> lr: from lr_init to lr_final over
+  `steps`, or by lr_final / lr_init every `lr_decay_steps` where that is set."""
   span = cfg.get("lr_decay_steps", 0) or max(cfg.steps, 1)
-  schedule = optax.exponential_decay(cfg.lr_init, transition_steps=span,
-                                     decay_rate=cfg.lr_final / cfg.lr_init)
-  return optax.adam(schedule)
+  return optax.exponential_decay(cfg.lr_init, transition_steps=span,
+                                 decay_rate=cfg.lr_final / cfg.lr_init)
+
+
+def optimizer(cfg) -> optax.GradientTransformation:
+  """Adam with `schedule(cfg)`."""
+  return optax.adam(schedule(cfg))
 
 
 def minus_seconds(cfg, seconds):
@@ -71,9 +75,29 @@ def minus_seconds(cfg, seconds):
   return cfg
 
 
-def _all_finite(tree):
-  leaves = jax.tree_util.tree_leaves(tree)
-  return jnp.all(jnp.stack([jnp.all(jnp.isfinite(x)) for x in leaves]))
+# What a non-finite step went wrong in first, in the order a step computes them.
+NONFINITE_WHAT = ("loss", "gradient", "update", "parameter")
+
+
+class NonFiniteError(RuntimeError):
+  """A stage's steps kept coming out non-finite; training cannot progress."""
+
+
+def _nonfinite_leaves(tree):
+  """[num_leaves] bool: which leaves of `tree` hold a non-finite entry."""
+  return jnp.stack([~jnp.all(jnp.isfinite(x)) for x in jax.tree_util.tree_leaves(tree)])
+
+
+def _diagnose(loss, grads, updates, params):
+  """(ok, info): ok when loss, gradients, update and new parameters are all
+  finite; info int32 [2] = (index into NONFINITE_WHAT of the first that is
+  not, the index of its first non-finite leaf), (-1, -1) when ok."""
+  bad = [~jnp.isfinite(loss)[None]] + [_nonfinite_leaves(t) for t in (grads, updates, params)]
+  any_bad = jnp.stack([b.any() for b in bad])
+  what = jnp.argmax(any_bad)
+  leaf = jnp.select([what == k for k in range(4)], [jnp.argmax(b) for b in bad])
+  ok = ~any_bad.any()
+  return ok, jnp.where(ok, jnp.array([-1, -1]), jnp.stack([what, leaf]).astype(jnp.int32))
 
 
 def part_of(x, part):
@@ -119,26 +143,143 @@ def loss_and_grads(loss_fn: Callable, params, data, key, step, parts: int = 1):
 
 
 def make_step(loss_fn: Callable, tx: optax.GradientTransformation, parts: int = 1):
-  """One jitted training step with a guard against non-finite losses or gradients.
+  """One jitted training step with a guard against non-finite values.
 
-  A step whose loss or gradients are not finite leaves params and optimiser
-  state untouched (and is counted); the step counter still advances so the
-  next step draws fresh randomness. `parts`: see loss_and_grads.
+  A step whose loss, gradients, update or new parameters are not all finite
+  leaves params and optimiser state untouched (and is counted in `skipped`);
+  the step counter still advances so the next step draws fresh randomness.
+  `streak` counts such steps in a row and `first_bad` records (step, what,
+  leaf) of the streak's first step (what: NONFINITE_WHAT), so the loop can
+  stop a stage that cannot progress and say why. `parts`: see loss_and_grads.
   """
   def step(train, data, base_key):
     key = jax.random.fold_in(base_key, train["step"])
     (loss, aux), grads = loss_and_grads(loss_fn, train["params"], data, key, train["step"],
                                         parts)
-    ok = jnp.isfinite(loss) & _all_finite(grads)
     updates, opt_state = tx.update(grads, train["opt_state"], train["params"])
     params = optax.apply_updates(train["params"], updates)
+    ok, info = _diagnose(loss, grads, updates, params)
     keep = lambda new, old: jax.tree_util.tree_map(lambda a, b: jnp.where(ok, a, b), new, old)
+    this = jnp.concatenate([train["step"][None], info])
+    first = jnp.where(ok | (train["streak"] > 0), train["first_bad"], this)
     train = dict(params=keep(params, train["params"]),
                  opt_state=keep(opt_state, train["opt_state"]),
                  step=train["step"] + 1,
-                 skipped=train["skipped"] + (1 - ok.astype(jnp.int32)))
+                 skipped=train["skipped"] + (1 - ok.astype(jnp.int32)),
+                 streak=jnp.where(ok, 0, train["streak"] + 1),
+                 first_bad=first)
     return train, loss, aux
   return jax.jit(step, donate_argnums=(0,))
+
+
+def initial_state(params, tx, step: int = 0):
+  """A fresh training state: params, optimiser state, step, skipped steps,
+  the current run of non-finite steps and its first (step, what, leaf)."""
+  return dict(params=params, opt_state=tx.init(params), step=jnp.int32(step),
+              skipped=jnp.int32(0), streak=jnp.int32(0), first_bad=jnp.full((3,), -1, jnp.int32))
+
+
+def _start(name, workdir, params, tx, mesh, log):
+  """(train_state, training seconds so far, checkpoint manager): restored
+  from the latest checkpoint if there is one, else fresh; placed on `mesh`."""
+  train_state = initial_state(params, tx)
+  mngr = checkpoint.manager(os.path.join(workdir, name, "checkpoints"))
+  restored = checkpoint.restore_latest(mngr, dict(train_state, wall_s=0.0))
+  wall_s = 0.0
+  if restored is not None:
+    wall_s = float(restored.pop("wall_s"))
+    train_state = restored
+  log.drop_after(name, int(train_state["step"]))
+  return parallel.replicate(train_state, mesh), wall_s, mngr
+
+
+class _Run:
+  """One stage's loop state: the train state, its clock and its records."""
+
+  def __init__(self, name, cfg, train_state, wall_s, mngr, log, eval_fn, wall_offset):
+    self.name, self.cfg, self.state, self.wall_s = name, cfg, train_state, wall_s
+    self.mngr, self.log, self.eval_fn, self.wall_offset = mngr, log, eval_fn, wall_offset
+    self.last_eval_s, self.last_log = wall_s, int(train_state["step"])
+    self.last_eval_step = None
+
+  def finish_step(self):
+    """Waits for the step in flight, counting the wait as training time."""
+    t0 = time.perf_counter()
+    jax.block_until_ready(self.state)
+    self.wall_s += time.perf_counter() - t0
+
+  def evaluate(self, step):
+    self.last_eval_step, self.last_eval_s = step, self.wall_s
+    params = parallel.to_local(self.state["params"])
+    metrics = {k: float(v) for k, v in self.eval_fn(params, step).items()}
+    self.log.write(stage=self.name, step=step, wall_s=self.wall_offset + self.wall_s,
+                   heldout=True, **metrics)
+
+  def record(self, step, loss, aux, bar):
+    self.finish_step()
+    loss = float(loss)
+    record = {k: float(v) for k, v in aux.items()}
+    self.log.write(stage=self.name, step=step, wall_s=self.wall_offset + self.wall_s,
+                   loss=loss, skipped=int(self.state["skipped"]), **record)
+    shown = {"loss": f"{loss:.4g}"}
+    if "psnr" in record:
+      shown["psnr"] = f"{record['psnr']:.2f}"
+    bar.set_postfix(**shown)
+    self.last_log = step
+
+  def save(self, step):
+    self.finish_step()
+    checkpoint.save(self.mngr, step, dict(self.state, wall_s=self.wall_s))
+
+  def check_progress(self, step):
+    """NonFiniteError once `max_nonfinite` steps in a row were non-finite."""
+    streak = int(self.state["streak"])
+    if streak < self.cfg.get("max_nonfinite", 0) or not self.cfg.get("max_nonfinite", 0):
+      return
+    first_step, what, leaf = (int(x) for x in jax.device_get(self.state["first_bad"]))
+    name = NONFINITE_WHAT[what]
+    where = ""
+    if name != "loss":
+      paths = [jax.tree_util.keystr(p) for p, _ in
+               jax.tree_util.tree_leaves_with_path(self.state["params"])]
+      where = f" in leaf {paths[leaf]}" if 0 <= leaf < len(paths) else ""
+    fields = (f"{self.name}.lr_init, {self.name}.lr_final" if name in ("update", "parameter")
+              else f"{self.name}.batch_rays, {self.name}.sampler, the loss terms' weights and "
+              f"the data")
+    raise NonFiniteError(
+        f"stage {self.name!r}: {streak} steps in a row up to step {step} were not finite "
+        f"(limit {self.name}.max_nonfinite={self.cfg.max_nonfinite}); the first, step "
+        f"{first_step + 1}, had a non-finite {name}{where}. Check {fields}. The stage was "
+        f"not saved as finished; its last checkpoint holds the last finite parameters.")
+
+  def after_step(self, step, loss, aux, bar):
+    """Logs, checkpoints and evaluates when they are due; stops a stage whose
+    steps keep coming out non-finite."""
+    cfg = self.cfg
+    if step % cfg.log_every == 0 or step == cfg.steps:
+      self.record(step, loss, aux, bar)
+      self.check_progress(step)
+    if step % cfg.checkpoint_every == 0:
+      self.save(step)
+    due = (cfg.eval_every and step % cfg.eval_every == 0) or (
+        cfg.eval_every_s and self.wall_s - self.last_eval_s >= cfg.eval_every_s)
+    if due and self.eval_fn is not None:
+      self.finish_step()
+      self.evaluate(step)
+
+  def close(self, step):
+    """The last log line, checkpoint and evaluation of a stopped loop."""
+    cfg = self.cfg
+    self.finish_step()
+    self.check_progress(step)
+    if self.last_log != step:
+      self.log.write(stage=self.name, step=step, wall_s=self.wall_offset + self.wall_s,
+                     skipped=int(self.state["skipped"]))
+    if self.mngr.latest_step() != step:
+      checkpoint.save(self.mngr, step, dict(self.state, wall_s=self.wall_s))
+    if (self.eval_fn is not None and (cfg.eval_every or cfg.eval_every_s)
+        and self.last_eval_step != step):
+      self.evaluate(step)
 
 
 def train(name: str, cfg, workdir: str, params, loss_fn: Callable, data, seed: int,
@@ -170,81 +311,30 @@ def train(name: str, cfg, workdir: str, params, loss_fn: Callable, data, seed: i
   log = log or MetricsLog(workdir)
   tx = optimizer(cfg)
   step_fn = make_step(loss_fn, tx, cfg.microbatches)
-  train_state = dict(params=params, opt_state=tx.init(params), step=jnp.int32(0),
-                     skipped=jnp.int32(0))
-  mngr = checkpoint.manager(os.path.join(workdir, name, "checkpoints"))
-  restored = checkpoint.restore_latest(mngr, dict(train_state, wall_s=0.0))
-  wall_s = 0.0
-  if restored is not None:
-    wall_s = float(restored.pop("wall_s"))
-    train_state = restored
-  train_state = parallel.replicate(train_state, mesh)
+  train_state, wall_s, mngr = _start(name, workdir, params, tx, mesh, log)
+  run = _Run(name, cfg, train_state, wall_s, mngr, log, eval_fn, wall_offset)
   data = parallel.replicate(data, mesh)
   start = int(train_state["step"])
-  log.drop_after(name, start)
   base_key = jax.random.PRNGKey(seed)
-  last_eval_s, last_log, last_eval_step = wall_s, start, None
-
-  def evaluate(step):
-    nonlocal last_eval_step
-    last_eval_step = step
-    metrics = {k: float(v) for k, v in eval_fn(train_state["params"], step).items()}
-    log.write(stage=name, step=step, wall_s=wall_offset + wall_s, heldout=True, **metrics)
-    return metrics
-
-  def finish_step():
-    """Waits for the step in flight, counting the wait as training time."""
-    nonlocal wall_s
-    t0 = time.perf_counter()
-    jax.block_until_ready(train_state)
-    wall_s += time.perf_counter() - t0
-
   bar = tqdm.tqdm(total=cfg.steps, initial=start, desc=name, dynamic_ncols=True,
                   mininterval=1.0)
-  step = start
-  in_flight = None  # the loss of the step before the current one
+  step, in_flight = start, None  # in_flight: the loss of the step before the current one
   for step in range(start + 1, cfg.steps + 1):
-    if cfg.max_seconds and wall_s >= cfg.max_seconds:
+    if cfg.max_seconds and run.wall_s >= cfg.max_seconds:
       step -= 1
       break
     t0 = time.perf_counter()
-    train_state, loss, aux = step_fn(train_state, data, base_key)
+    run.state, loss, aux = step_fn(run.state, data, base_key)
     # Keep one step in flight: wait for the previous step, not this one, so
     # the device never idles while Python dispatches (1-2 ms a step on a
     # GPU), and wall_s, which the budget reads, lags the device by <= 1 step.
     if in_flight is not None:
       in_flight.block_until_ready()
     in_flight = loss
-    wall_s += time.perf_counter() - t0
+    run.wall_s += time.perf_counter() - t0
     bar.update(1)
-    if step % cfg.log_every == 0 or step == cfg.steps:
-      finish_step()
-      loss = float(loss)
-      record = {k: float(v) for k, v in aux.items()}
-      log.write(stage=name, step=step, wall_s=wall_offset + wall_s, loss=loss,
-                skipped=int(train_state["skipped"]), **record)
-      shown = {"loss": f"{loss:.4g}"}
-      if "psnr" in record:
-        shown["psnr"] = f"{record['psnr']:.2f}"
-      bar.set_postfix(**shown)
-      last_log = step
-    if step % cfg.checkpoint_every == 0:
-      finish_step()
-      checkpoint.save(mngr, step, dict(train_state, wall_s=wall_s))
-    due = (cfg.eval_every and step % cfg.eval_every == 0) or (
-        cfg.eval_every_s and wall_s - last_eval_s >= cfg.eval_every_s)
-    if due and eval_fn is not None:
-      finish_step()
-      evaluate(step)
-      last_eval_s = wall_s
-  finish_step()
+    run.after_step(step, loss, aux, bar)
+  run.close(step)
   bar.close()
-  if last_log != step:
-    log.write(stage=name, step=step, wall_s=wall_offset + wall_s,
-              skipped=int(train_state["skipped"]))
-  if mngr.latest_step() != step:
-    checkpoint.save(mngr, step, dict(train_state, wall_s=wall_s))
-  if eval_fn is not None and (cfg.eval_every or cfg.eval_every_s) and last_eval_step != step:
-    evaluate(step)
-  return train_state["params"], step, {"wall_s": wall_s,
-                                       "skipped": int(train_state["skipped"])}
+  return parallel.to_local(run.state["params"]), step, {"wall_s": run.wall_s,
+                                                        "skipped": int(run.state["skipped"])}

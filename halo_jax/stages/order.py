@@ -5,9 +5,9 @@ from halo_jax.stages import base
 
 
 def stage_names(config) -> tuple:
-  """The config's stage sections, in config order."""
+  """The config's stage sections (those with a trainer `kind` and `steps`)."""
   return tuple(k for k, v in config.items()
-               if hasattr(v, "get") and k != "data" and v.get("kind", None) in base.TRAINERS)
+               if hasattr(v, "get") and "kind" in v and "steps" in v)
 
 
 def parse_stages(spec, config) -> tuple:

@@ -5,7 +5,11 @@ from typing import Any
 import flax
 import ml_collections
 
-from halo_jax import checkpoint
+from halo_jax import checkpoint, parallel
+
+
+class StageMissing(FileNotFoundError):
+  """A stage that this launch needs has not finished in the workdir."""
 
 
 @flax.struct.dataclass
@@ -33,7 +37,7 @@ def load(workdir: str, name: str, params_like) -> StageState:
   d = stage_dir(workdir, name)
   final = os.path.join(d, "final")
   if not os.path.exists(os.path.join(final, "config.json")):
-    raise FileNotFoundError(
+    raise StageMissing(
         f"{final}: stage {name!r} has not finished in this workdir; run it first "
         f"(--config.stages={name})")
   config = checkpoint.read_config(os.path.join(final, "config.json"))
@@ -51,4 +55,5 @@ def save(workdir: str, state: StageState) -> None:
     mngr.delete(int(state.step))
   checkpoint.save(mngr, int(state.step), {"params": state.params, "step": int(state.step)})
   # config.json last: its presence marks the stage as finished.
-  checkpoint.write_config(os.path.join(final, "config.json"), state.config)
+  if parallel.is_primary():
+    checkpoint.write_config(os.path.join(final, "config.json"), state.config)

@@ -5,7 +5,7 @@ import fnmatch
 import json
 import os
 
-from halo_jax import checkpoint
+from halo_jax import checkpoint, parallel
 
 # Fields that say which stages run, how long or how often to log, evaluate and
 # save, and the frequency search's settings (a search's choice is kept in
@@ -37,7 +37,8 @@ def check_workdir(config, workdir: str) -> None:
   path = os.path.join(workdir, "config.json")
   now = json.loads(config.to_json_best_effort())
   if not os.path.exists(path):
-    checkpoint.write_config(path, config)
+    if parallel.is_primary():
+      checkpoint.write_config(path, config)
     return
   try:
     with open(path) as f:

@@ -1,0 +1,139 @@
+"""The package's shape: imports go one way through the layers, without
+cycles; modules and functions stay small; every registry entry is usable."""
+import ast
+import pathlib
+
+import pytest
+
+from halo_jax import datasets, models, samplers
+from halo_jax.methods import METHODS
+from halo_jax.stages import base, terms
+
+PACKAGE = pathlib.Path(__file__).resolve().parent.parent / "halo_jax"
+
+# Bottom to top: numerics, models and data, training, entry points. A module
+# may import modules of its own layer or below.
+LAYERS = (
+    {"registry", "geometry", "encoding", "camera", "rng", "samplers", "render", "raycast",
+     "losses", "metrics", "lightfield", "frequency", "plots"},
+    {"models", "ray_fields", "datasets", "checkpoint", "parallel", "evaluate", "defaults",
+     "workdir_lock"},
+    {"stages", "tuning", "validate", "methods", "stability", "pipeline", "user_errors"},
+    {"main", "render.__main__"},
+)
+
+
+def module_name(path: pathlib.Path) -> str:
+  rel = path.relative_to(PACKAGE).with_suffix("")
+  parts = list(rel.parts)
+  if parts[-1] == "__init__":
+    parts.pop()
+  return ".".join(parts)
+
+
+def layer_of(name: str) -> int:
+  """The layer of halo_jax.<name>: its own entry, else its top package's."""
+  for i in reversed(range(len(LAYERS))):
+    if name in LAYERS[i] or name.split(".")[0] in LAYERS[i]:
+      return i
+  raise AssertionError(f"halo_jax.{name} is in no layer of tests/test_architecture.py")
+
+
+def imports_of(path: pathlib.Path, known) -> set:
+  """The halo_jax modules `path` imports by name (not their parent packages)."""
+  out = set()
+  for node in ast.walk(ast.parse(path.read_text())):
+    if isinstance(node, ast.Import):
+      out.update(a.name[len("halo_jax."):] for a in node.names if a.name.startswith("halo_jax."))
+    elif isinstance(node, ast.ImportFrom) and node.module and (
+        node.module == "halo_jax" or node.module.startswith("halo_jax.")):
+      mod = node.module[len("halo_jax."):] if node.module != "halo_jax" else ""
+      for a in node.names:
+        sub = f"{mod}.{a.name}" if mod else a.name
+        out.add(sub if sub in known else mod)
+  return {m for m in out if m}
+
+
+def graph():
+  paths = {module_name(p): p for p in PACKAGE.rglob("*.py")}
+  return {name: imports_of(p, paths) for name, p in paths.items() if name}
+
+
+def upward_imports(g):
+  return [f"halo_jax.{a} (layer {layer_of(a)}) imports halo_jax.{b} (layer {layer_of(b)})"
+          for a, deps in sorted(g.items()) for b in sorted(deps) if layer_of(b) > layer_of(a)]
+
+
+def find_cycle(g):
+  """One import cycle of graph g as a list of names, or None."""
+  state, stack = {}, []
+
+  def visit(n):
+    state[n] = "open"
+    stack.append(n)
+    for m in sorted(g.get(n, ())):
+      if state.get(m) == "open":
+        return stack[stack.index(m):] + [m]
+      if m not in state:
+        found = visit(m)
+        if found:
+          return found
+    stack.pop()
+    state[n] = "done"
+    return None
+
+  for n in sorted(g):
+    if n not in state:
+      found = visit(n)
+      if found:
+        return found
+  return None
+
+
+def test_every_import_goes_down_or_sideways():
+  bad = upward_imports(graph())
+  assert not bad, "upward imports:\n" + "\n".join(bad)
+
+
+def test_no_import_cycles():
+  cycle = find_cycle(graph())
+  assert cycle is None, "import cycle: " + " -> ".join(cycle)
+
+
+def test_the_checks_catch_what_they_look_for():
+  g = graph()
+  # the real graph has edges (the tests above are not vacuous) ...
+  assert "raycast" in g["stages.radiance"] and "stages.base" in g["pipeline"]
+  assert "stages.radiance" in g["stages"]  # the package registers its trainers
+  # ... and a graph with an upward import and a cycle is caught
+  bad = {"encoding": {"models"}, "models": {"stages.loop"}, "stages.loop": {"models"}}
+  assert len(upward_imports(bad)) == 2
+  assert find_cycle(bad) == ["models", "stages.loop", "models"]
+  assert (layer_of("main"), layer_of("render.__main__"), layer_of("render")) == (3, 3, 0)
+
+
+def test_modules_and_functions_stay_small():
+  long = []
+  for p in PACKAGE.rglob("*.py"):
+    src = p.read_text()
+    if len(src.splitlines()) > 400:
+      long.append(f"{p.name}: {len(src.splitlines())} lines")
+    for node in ast.walk(ast.parse(src)):
+      if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
+        n = node.end_lineno - node.lineno + 1
+        if n > 60:
+          long.append(f"{p.name}:{node.lineno} {node.name}: {n} lines")
+  assert not long, "\n".join(long)
+
+
+@pytest.mark.parametrize("registry, expected", [
+    (datasets.LOADERS, {"blender", "procedural", "dnerf", "llff", "stanford_lf"}),
+    (models.MODELS, {"nerf", "deform", "epi"}),
+    (samplers.SAMPLERS, {"stratified", "hierarchical", "coarse_fine", "depth_guided", "joint"}),
+    (terms.TERMS, {"consist", "empty", "occlusion"}),
+    (base.TRAINERS, {"radiance", "ray_field", "light_field"}),
+    (METHODS, {"halo", "nerf_tuned", "nerf_paper", "freenerf", "halo+freenerf"}),
+])
+def test_registries_hold_every_entry(registry, expected):
+  import halo_jax.pipeline  # noqa: F401  (registers the stage trainers)
+  assert set(registry.names()) == expected

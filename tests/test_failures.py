@@ -1,0 +1,131 @@
+"""Runs that cannot progress stop with a reason; user errors are one line and
+exit 2; one process per workdir. (Config rules: tests/test_methods.py.)"""
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import jax
+import jax.numpy as jnp
+import ml_collections
+import numpy as np
+import optax
+import pytest
+
+from halo_jax import pipeline, workdir_lock
+from halo_jax.stages import loop
+
+REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+
+def _step(loss_fn, tx, params):
+  step = loop.make_step(lambda p, data, key, step, part=None: (loss_fn(p), {}), tx)
+  state = loop.initial_state(params, tx)
+  new, _, _ = step(jax.tree_util.tree_map(jnp.copy, state), None, jax.random.PRNGKey(0))
+  return state, new
+
+
+PARAMS = {"a": jnp.array(3.0), "b": jnp.array([1.0, 2.0])}
+
+
+@pytest.mark.parametrize("loss_fn, tx, what, leaf", [
+    (lambda p: jnp.nan * (p["a"] + p["b"].sum()), optax.sgd(0.1), "loss", None),
+    # sqrt at 0: a finite loss with an infinite gradient in leaf 'a'
+    (lambda p: jnp.sqrt(jnp.abs(p["a"] - 3.0)) + p["b"].sum(), optax.sgd(0.1), "gradient", 0),
+    # a NaN learning rate: loss and gradients finite, the update not (leaf 'a' first)
+    (lambda p: (p["a"] ** 2 + p["b"].sum()), optax.sgd(float("nan")), "update", 0),
+    # a finite update that overflows the parameter 'b'
+    (lambda p: 0.0 * p["a"] - p["b"][1], optax.sgd(1e38), "parameter", 1),
+])
+def test_guard_names_the_first_non_finite_quantity(loss_fn, tx, what, leaf):
+  params = dict(PARAMS, b=jnp.array([1.0, 3e38])) if what == "parameter" else PARAMS
+  before, after = _step(loss_fn, tx, params)
+  step, got_what, got_leaf = (int(x) for x in after["first_bad"])
+  assert (step, loop.NONFINITE_WHAT[got_what]) == (0, what)
+  if leaf is not None:
+    assert got_leaf == leaf
+  assert int(after["skipped"]) == 1 and int(after["streak"]) == 1
+  for k in params:  # the parameters are left as they were
+    np.testing.assert_array_equal(after["params"][k], before["params"][k])
+
+
+def test_a_finite_step_is_taken_and_resets_the_streak():
+  before, after = _step(lambda p: p["a"] ** 2 + p["b"].sum(), optax.sgd(0.1), PARAMS)
+  assert int(after["skipped"]) == 0 and int(after["streak"]) == 0
+  np.testing.assert_allclose(after["params"]["a"], 3.0 - 0.1 * 6.0)
+
+
+def _train(tmp_path, bad_from, bad_until, max_nonfinite=3):
+  cfg = ml_collections.ConfigDict(dict(
+      steps=12, batch_rays=1, microbatches=1, lr_init=0.1, lr_final=0.1, lr_decay_steps=0,
+      max_seconds=0.0, checkpoint_every=100, log_every=1, eval_every=0, eval_every_s=0.0,
+      max_nonfinite=max_nonfinite))
+
+  def loss_fn(p, data, key, step, part=None):
+    bad = (step >= bad_from) & (step < bad_until)
+    return jnp.where(bad, jnp.nan, (p["w"] - 1.0) ** 2), {}
+  return loop.train("lo", cfg, str(tmp_path), {"w": jnp.array(0.0)}, loss_fn, {}, 0)
+
+
+def test_a_stage_that_cannot_progress_stops_and_says_why(tmp_path):
+  with pytest.raises(loop.NonFiniteError,
+                     match=r"stage 'lo': 3 steps in a row up to step 7 were not finite .*"
+                     r"lo.max_nonfinite=3.*the first, step 5, had a non-finite loss"):
+    _train(tmp_path, 4, 100)
+
+
+def test_isolated_non_finite_steps_are_skipped(tmp_path):
+  params, step, info = _train(tmp_path, 4, 6)   # two bad steps, under the limit of 3
+  assert step == 12 and info["skipped"] == 2
+
+
+def _cli(args, tmp_path):
+  cmd = [sys.executable, "-m", "halo_jax.main", "--config=configs/default.py",
+         f"--workdir={tmp_path / 'run'}", "--config.stages=lo", *args]
+  return subprocess.run(cmd, cwd=REPO, capture_output=True, text=True, timeout=300)
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--config.lo.lr_init=nan"], "error: lo.lr_init=nan: must be a positive number"),
+    (["--config.lo.batch_rays=0"], "error: lo.batch_rays=0: must be a positive integer"),
+    (["--config.stages=lo,rays"], "error: config.stages='lo,rays': each stage must be one of"),
+])
+def test_bad_config_is_one_line_and_exit_2(args, message, tmp_path):
+  res = _cli(args, tmp_path)
+  assert res.returncode == 2, res.stderr[-2000:]
+  assert message in res.stderr and "Traceback" not in res.stderr
+  assert not (tmp_path / "run").exists()
+
+
+def test_table_shows_a_dash_for_metrics_a_stage_does_not_have():
+  text = pipeline.table({"ray": {"step": 3, "wall_s": 1.0},
+                     "hi": {"step": 4, "wall_s": 2.0, "eval": {"psnr": 20.0, "ssim": 0.5}}})
+  ray, hi = text.splitlines()[1:]
+  assert ray.split()[-3:] == ["-", "-", "-"] and "nan" not in text
+  assert hi.split()[-3:] == ["20.00", "0.500", "-"]
+
+
+HOLD = ("import sys, time; from halo_jax import workdir_lock\n"
+        "with workdir_lock.hold(sys.argv[1]):\n  print('held', flush=True); time.sleep(600)\n")
+
+
+def test_a_second_launch_is_refused_and_kill_9_leaves_nothing_stale(config, tmp_path):
+  wd = str(tmp_path / "run")
+  holder = subprocess.Popen([sys.executable, "-c", HOLD, wd], cwd=REPO, stdout=subprocess.PIPE,
+                            text=True)
+  try:
+    assert holder.stdout.readline().strip() == "held"
+    with pytest.raises(workdir_lock.WorkdirLocked, match=f"in use by pid {holder.pid} on host "):
+      pipeline.run(config, wd)
+    res = subprocess.run([sys.executable, "experiments/few_shot.py", "--config=configs/default.py",
+                          f"--workdir={wd}"], cwd=REPO, capture_output=True, text=True,
+                         timeout=300)
+    assert res.returncode == 2 and f"pid {holder.pid}" in res.stderr
+    assert "Traceback" not in res.stderr
+  finally:
+    holder.send_signal(signal.SIGKILL)
+    holder.wait()
+  with workdir_lock.hold(wd):  # the kernel released it with the process
+    with workdir_lock.hold(wd):  # and one process may nest holds
+      pass

@@ -1,0 +1,239 @@
+"""Methods as data: the paper's NeRF and FreeNeRF pieces against closed forms
+and numpy, the method registry and config variants, validate()'s rules, and
+short runs of every method through the unchanged pipeline."""
+import json
+import os
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from conftest import tiny_config
+from halo_jax import losses, methods, models, pipeline, raycast, samplers, validate
+from halo_jax.registry import ConfigError
+from halo_jax.stages import batches, loop
+
+
+def freenerf_mask_reference(L, t, T):
+  """FreeNeRF's published mask for one coordinate (their get_freq_reg_mask
+  with pos_enc_length = L), written out with numpy."""
+  if t >= T:
+    return np.ones(L)
+  mask = np.zeros(L)
+  ptr = min(L * t / T + 1, L)
+  k = int(ptr)
+  mask[:k] = 1.0
+  if k < L:
+    mask[k] = ptr - k
+  return mask
+
+
+@pytest.mark.parametrize("L", [4, 10])
+def test_band_weights_match_freenerf_mask(L):
+  T = 900
+  for t in (0, 1, 45, 90, 91, 450, 809, 810, 899, 900, 2000):
+    got = np.asarray(models.band_weights(min(t / T, 1.0), L, 3)).reshape(L, 3)
+    np.testing.assert_allclose(got, np.repeat(freenerf_mask_reference(L, t, T)[:, None], 3, 1),
+                               atol=1e-6, err_msg=f"t={t}")
+
+
+def test_masked_encoding_keeps_the_input_and_hides_high_bands():
+  x = jax.random.uniform(jax.random.PRNGKey(0), (5, 3), minval=-1, maxval=1)
+  full = models.masked_positional_encoding(x, 6, 1.0, None)
+  np.testing.assert_array_equal(models.masked_positional_encoding(x, 6, 1.0, 1.0), full)
+  start = np.asarray(models.masked_positional_encoding(x, 6, 1.0, 0.0))
+  # [x (3), sin (6 bands x 3), cos (6 x 3)]: only x and band 0 survive
+  keep = np.zeros(3 + 36, bool)
+  keep[:6] = True
+  keep[21:24] = True
+  np.testing.assert_array_equal(start[:, keep], np.asarray(full)[:, keep])
+  np.testing.assert_array_equal(start[:, ~keep], 0.0)
+
+
+def test_occlusion_loss_is_the_mean_density_nearest_the_camera():
+  sigma = np.random.default_rng(0).uniform(0, 5, (7, 64)).astype(np.float32)
+  np.testing.assert_allclose(losses.occlusion(jnp.asarray(sigma), 20), sigma[:, :20].mean(),
+                             rtol=1e-6)
+
+
+def test_relu_density_is_zero_below_its_threshold():
+  m = models.NeRFMLP(pos_freqs=2, width=8, depth=1, skips=(), use_viewdirs=False,
+                     density_bias=0.0, density_activation="relu")
+  x = jax.random.normal(jax.random.PRNGKey(1), (256, 3))
+  sigma, _ = m.apply({"params": models.init_nerf(m, "nerf", 0)}, x, x)
+  assert np.any(np.asarray(sigma) == 0.0) and np.all(np.asarray(sigma) >= 0.0)
+
+
+def test_coarse_fine_uses_the_coarse_mlp_and_composites_both_sample_sets():
+  m = models.NeRFMLP(pos_freqs=4, width=16, depth=2, skips=(), use_viewdirs=True)
+  fine, coarse = models.init_nerf(m, "nerf", 0), models.init_nerf(m, "nerf", 1)
+  cfg = tiny_config().hi.sampler
+  cfg.update(kind="coarse_fine", num_coarse=16, num_samples=32)
+  o = jnp.tile(jnp.array([[0.0, 0.0, 4.0]]), (8, 1))
+  d = jnp.tile(jnp.array([[0.0, 0.0, -1.0]]), (8, 1))
+  kw = dict(near=2.0, far=6.0, white_background=True, randomized=True)
+  key = jax.random.PRNGKey(3)
+  outs = raycast.render_rays(m, cfg, fine, o, d, key, coarse_params=coarse, **kw)
+  assert outs[0]["weights"].shape == (8, 16) and outs[1]["weights"].shape == (8, 16 + 32 + 1)
+  same = raycast.render_rays(m, cfg, fine, o, d, key, **kw)
+  # the first pass ran the coarse MLP: a different field gives other weights
+  assert not np.allclose(outs[0]["weights"], same[0]["weights"])
+  # the union of edges tiles [near, far]
+  np.testing.assert_allclose(outs[1]["weights"].sum(-1) + np.exp(
+      -np.cumsum(outs[1]["sigma"] * 0, -1))[..., -1] * 0, outs[1]["acc"], rtol=1e-6)
+  edges = samplers.merge_edges(jnp.array([[0.0, 0.5, 1.0]]), jnp.array([[0.0, 0.2, 1.0]]))
+  np.testing.assert_allclose(edges, [[0.0, 0.0, 0.2, 0.5, 1.0, 1.0]])
+
+
+def test_one_image_batches_stay_in_one_view_and_its_crop():
+  n, h, w = 5, 8, 6
+  index = jax.device_put(batches.index_data(n, h, w, 0.5))
+  for s in range(20):
+    key = jax.random.PRNGKey(s)
+    k1, k2 = jax.random.split(key)
+    idx = np.asarray(batches.draw(k1, k2, 100, n * h * w, 64, index, 10, one_image=True))
+    assert len(set(idx // (h * w))) == 1
+    crop = np.asarray(batches.draw(k1, k2, 0, n * h * w, 64, index, 10, one_image=True))
+    assert set(crop % (h * w)) <= set(batches.crop_pixels(h, w, 0.5))
+
+
+def test_lr_decay_steps_gives_the_original_schedule():
+  c = tiny_config().hi
+  c.update(lr_init=5e-4, lr_final=5e-5, steps=100)
+  over_cap = loop.schedule(c)
+  np.testing.assert_allclose([float(over_cap(0)), float(over_cap(100))], [5e-4, 5e-5], rtol=1e-5)
+  c.lr_decay_steps = 500000  # the original NeRF's: 10x per 500k steps, whatever the cap
+  original = loop.schedule(c)
+  for step in (0, 100, 1000, 250000):
+    np.testing.assert_allclose(float(original(step)), 5e-4 * 0.1 ** (step / 500000), rtol=1e-5)
+
+
+@pytest.mark.parametrize("variant, parts, flags, method", [
+    ("lego_8view_cpu", ["lego", "8view"], {"cpu"}, "halo"),
+    ("lego_8view_cpu_nerf", ["lego", "8view"], {"cpu"}, "nerf_tuned"),
+    ("lego_8view_nerf_paper", ["lego", "8view"], set(), "nerf_paper"),
+    ("lego_8view_cpu_freenerf", ["lego", "8view"], {"cpu"}, "freenerf"),
+    ("lego_oneside_cpu_halo+freenerf", ["lego", "oneside"], {"cpu"}, "halo+freenerf"),
+])
+def test_variants_name_the_method(variant, parts, flags, method):
+  assert methods.split_variant(variant) == (parts, flags, method)
+
+
+def test_methods_configure_the_stages_they_describe():
+  from configs import blender
+  c = blender.get_config("lego_8view_cpu")
+  paper = methods.apply(c, "nerf_paper")
+  assert paper.method == "nerf_paper" and paper.stages == "hi"
+  assert (paper.hi.sampler.kind, paper.hi.sampler.num_coarse, paper.hi.sampler.num_samples) == (
+      "coarse_fine", 64, 128)
+  assert paper.hi.model.density_activation == "relu" and paper.hi.density_noise == 0.0
+  assert paper.hi.one_image and paper.hi.batch_rays == 1024
+  free = methods.apply(c, "freenerf")
+  assert free.hi.freq_reg.end == 0.9 and free.hi.occlusion.weight == 0.01
+  both = methods.apply(c, "halo+freenerf")
+  assert pipeline.needed(both) == ("lo", "ray", "hi") and both.hi.freq_reg.end == 0.9
+  assert c.method == "halo" and c.hi.freq_reg.end == 0.0  # apply copies
+  for name in methods.METHODS.names():
+    validate.validate(methods.apply(c, name))
+  with pytest.raises(ConfigError, match="method='dietnerf' is not a known method"):
+    methods.apply(c, "dietnerf")
+
+
+def _llff():
+  from configs import llff
+  return llff.get_config("fern_4view_cpu")
+
+
+def _dnerf():
+  from configs import dnerf
+  return dnerf.get_config("lego_cpu")
+
+
+def _knights():
+  from configs import stanford_lf
+  return stanford_lf.get_config("knights_cpu")
+
+
+def _set(make, **fields):
+  def build():
+    c = make()
+    for path, value in fields.items():
+      *parents, leaf = path.split("__")
+      node = c
+      for p in parents:
+        node = node[p]
+      node[leaf] = value
+    return c
+  return build
+
+
+RULES = [
+    (_set(_llff, hi__empty__weight=0.1),
+     r"hi.empty \(loss term 'empty'\) takes sphere rays, not data.kind='llff' \(ndc rays\)"),
+    (_set(_llff, ray__random_fraction=0.5, ray__bank_rays=1024),
+     r"ray.random_fraction=0.5 draws random rays .* data.kind='llff'"),
+    (_set(tiny_config, lo__batch_rays=0), r"lo.batch_rays=0: must be a positive integer"),
+    (_set(tiny_config, lo__lr_init=float("nan")), r"lo.lr_init=nan: must be a positive number"),
+    (_set(tiny_config, hi__microbatches=3), r"hi.microbatches=3 does not divide hi.batch_rays=64"),
+    (_set(tiny_config, hi__sampler__kind="importance"),
+     r"hi.sampler.kind='importance' is not a known sampler"),
+    (_set(tiny_config, hi__sampler__num_samples=0),
+     r"hi.sampler.num_samples=0: must be a positive integer"),
+    (_set(tiny_config, stages="lo,rays"), r"config.stages='lo,rays': each stage must be one of"),
+    (_set(tiny_config, budget_s=10.0, budget_shares__lo=0.0, budget_shares__ray=0.0,
+          budget_shares__hi=0.0), r"budget_shares .* sum to more than 0"),
+    (_set(_dnerf, hi__sampler__kind="depth_guided"),
+     r"hi.sampler.kind='depth_guided' .* data.kind='dnerf'"),
+    (_set(_dnerf, stages="lo,ray,hi"), r"ray.kind='ray_field' .*|the ray field has no time input"),
+    (_set(_knights, hi__sampler__kind="coarse_fine"), r"light fields use one of"),
+    (_set(_llff, lo__encoding__auto=True), r"lo.encoding.auto=True: the frequency search .*'llff'"),
+    (_set(tiny_config, hi__kind="nerf"), r"hi.kind='nerf' is not a known stage trainer"),
+    (_set(tiny_config, final_stage="out"), r"final_stage='out': must be one of"),
+]
+
+
+@pytest.mark.parametrize("make, message", RULES, ids=[m for _, m in RULES])
+def test_validate_names_the_field(make, message):
+  with pytest.raises(ConfigError, match=message):
+    validate.validate(make())
+
+
+def test_every_shipped_config_validates():
+  from configs import blender, default, dnerf, llff, stanford_lf
+  for c in (default.get_config(), blender.get_config("lego_8view"),
+            blender.get_config("lego_oneside_cpu"), llff.get_config("fern_4view_cpu_joint"),
+            dnerf.get_config("lego"), stanford_lf.get_config("knights")):
+    for name in ("halo", "nerf_tuned"):
+      validate.validate(methods.apply(c, name))
+
+
+def test_llff_with_empty_loss_is_refused_before_any_work(tmp_path):
+  from test_llff import llff_config, write_llff
+  c = llff_config(write_llff(str(tmp_path / "scene")))
+  c.hi.empty.weight = 0.1
+  wd = str(tmp_path / "run")
+  with pytest.raises(ConfigError, match=r"hi.empty .* data.kind='llff'"):
+    pipeline.run(c, wd)
+  assert not os.path.exists(wd)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", ["nerf_paper", "freenerf", "halo+freenerf"])
+def test_method_trains_through_the_pipeline(name, config, scene_root, tmp_path):
+  config.data.root = scene_root
+  c = methods.apply(config, name)
+  if name != "halo+freenerf":  # keep the tiny sizes: the method's own are for real runs
+    c.hi.sampler.update(num_coarse=8, num_samples=8)
+    c.hi.update(batch_rays=64, microbatches=1, steps=6, precrop_steps=2)
+  wd = str(tmp_path / "run")
+  infos = pipeline.run(c, wd)
+  assert infos["hi"]["step"] == 6 and infos["hi"]["skipped"] == 0
+  assert 5.0 < infos["hi"]["eval"]["psnr"] < 40.0
+  log = [json.loads(line) for line in open(os.path.join(wd, "metrics.jsonl"))]
+  if name == "freenerf":
+    assert any("occlusion" in r for r in log)
+  from halo_jax import stages
+  from halo_jax.stages import base
+  state = stages.load(wd, "hi", base.trainer_of(c, "hi").params_like(c, "hi", None))
+  assert ("coarse" in state.params) == (name != "halo+freenerf")

@@ -1,0 +1,91 @@
+"""Two processes joined by jax.distributed on this machine (CPU, gloo): the
+same loss trajectory as one process, one writer, and a lost peer ends the job
+instead of hanging it. README, "Data parallelism", says how to launch on a
+cluster."""
+import json
+import os
+import socket
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+
+REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+WORKER = """
+import json, sys
+sys.path.insert(0, {tests!r})
+from conftest import tiny_config
+from halo_jax import parallel, pipeline
+pid, num = int(sys.argv[1]), int(sys.argv[2])
+c = tiny_config()
+c.data.root = {root!r}
+c.hi.encoding.with_lo = True
+c.hi.init_from_lo = True
+c.eval.lpips = False
+for name in ("lo", "ray", "hi"):
+  c[name].update(steps={steps}, log_every=1, checkpoint_every=4, eval_every=0)
+if num > 1:
+  c.parallel.update(multihost=True, data_parallel=True, coordinator="127.0.0.1:{port}",
+                    num_processes=num, process_id=pid, heartbeat_s=10)
+parallel.initialize(c.parallel)
+infos = pipeline.run(c, {wd!r})
+print("DONE", json.dumps({{k: v["step"] for k, v in infos.items()}}), flush=True)
+"""
+
+
+def free_port():
+  with socket.socket() as s:
+    s.bind(("127.0.0.1", 0))
+    return s.getsockname()[1]
+
+
+def launch(scene_root, wd, pid, num, steps=6, port=0):
+  code = WORKER.format(tests=os.path.join(REPO, "tests"), root=scene_root, wd=wd, steps=steps,
+                       port=port)
+  env = dict(os.environ, JAX_PLATFORMS="cpu", XLA_FLAGS="")
+  return subprocess.Popen([sys.executable, "-c", code, str(pid), str(num)], cwd=REPO, env=env,
+                          stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+
+
+def losses(wd):
+  recs = [json.loads(line) for line in open(os.path.join(wd, "metrics.jsonl"))]
+  return [(r["stage"], r["step"], r["loss"]) for r in recs if "loss" in r]
+
+
+@pytest.mark.slow
+def test_two_processes_follow_one_and_only_process_0_writes(scene_root, tmp_path):
+  one = launch(scene_root, str(tmp_path / "one"), 0, 1)
+  out, err = one.communicate(timeout=600)
+  assert one.returncode == 0, err[-3000:]
+  port, wd = free_port(), str(tmp_path / "two")
+  procs = [launch(scene_root, wd, i, 2, port=port) for i in range(2)]
+  outs = [p.communicate(timeout=900) for p in procs]
+  for p, (out, err) in zip(procs, outs):
+    assert p.returncode == 0, err[-3000:]
+    assert "DONE" in out
+  a, b = losses(str(tmp_path / "one")), losses(wd)
+  # one writer: every record once, in the single process's order
+  assert [r[:2] for r in a] == [r[:2] for r in b] and len(a) == 18
+  np.testing.assert_allclose([r[2] for r in b], [r[2] for r in a], rtol=1e-4)
+  for name in ("lo", "ray", "hi"):
+    assert os.path.exists(os.path.join(wd, name, "final", "config.json"))
+
+
+@pytest.mark.slow
+def test_a_lost_process_ends_the_other_with_an_error(scene_root, tmp_path):
+  port, wd = free_port(), str(tmp_path / "run")
+  procs = [launch(scene_root, wd, i, 2, steps=100000, port=port) for i in range(2)]
+  log = os.path.join(wd, "metrics.jsonl")
+  t0 = time.time()
+  while not (os.path.exists(log) and os.path.getsize(log) > 0) and time.time() - t0 < 300:
+    time.sleep(1)
+  assert os.path.exists(log), "the job never started training"
+  procs[1].kill()
+  t_kill = time.time()
+  _, err = procs[0].communicate(timeout=180)
+  assert procs[0].returncode != 0
+  assert time.time() - t_kill < 120, "the surviving process hung"
+  assert "another task died" in err or "heartbeat" in err, err[-3000:]
