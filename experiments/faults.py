@@ -31,8 +31,9 @@ def main_cmd(wd, *args, config="configs/default.py", stages="lo"):
 def run(cmd):
   t0 = time.time()
   res = subprocess.run(cmd, cwd=REPO, capture_output=True, text=True, timeout=900)
-  lines = [line for line in res.stderr.splitlines() if line.strip()]
-  shown = next((line for line in lines if line.startswith("error:")), lines[-1] if lines else "")
+  lines = [line for line in res.stderr.replace("\r", "\n").splitlines() if line.strip()]
+  shown = next((line for line in lines if line.startswith("error:")),
+               "(no error: the run finished)" if res.returncode == 0 else lines[-1] if lines else "")
   return {"exit": res.returncode, "message": shown[:400], "traceback": "Traceback" in res.stderr,
           "seconds": round(time.time() - t0, 1)}
 
@@ -47,7 +48,8 @@ def case_llff_empty(wd):
 
 
 def case_diverging(wd):
-  return run(main_cmd(wd, "--config.lo.density_noise=1e39", "--config.lo.steps=200"))
+  return run(main_cmd(wd, "--config.lo.lr_init=1e38", "--config.lo.lr_final=1e38",
+                      "--config.lo.steps=200"))
 
 
 def case_missing_stage(wd):
@@ -92,6 +94,84 @@ def case_kill_and_resume(wd):
   return out
 
 
+def _scene(wd, corrupt):
+  """A copy of the built-in scene with one thing broken by `corrupt(root)`."""
+  sys.path.insert(0, REPO)
+  from halo_jax.datasets import procedural  # pylint: disable=g-import-not-at-top
+  root = procedural.generate(os.path.join(wd + "_scene"), size=64)
+  corrupt(root)
+  return root
+
+
+def _blender(wd, root):
+  return run(main_cmd(wd, "--config.data.kind=blender", f"--config.data.root={root}",
+                      "--config.data.factor=2", "--config.data.train_views=r_0,r_13"))
+
+
+def case_missing_image(wd):
+  return _blender(wd, _scene(wd, lambda r: os.remove(os.path.join(r, "train", "r_13.png"))))
+
+
+def case_malformed_json(wd):
+  def corrupt(root):
+    with open(os.path.join(root, "transforms_train.json"), "a") as f:
+      f.write("}")
+  return _blender(wd, _scene(wd, corrupt))
+
+
+def case_non_rigid_pose(wd):
+  def corrupt(root):
+    path = os.path.join(root, "transforms_train.json")
+    meta = json.load(open(path))
+    frame = next(fr for fr in meta["frames"] if fr["file_path"].endswith("r_13"))
+    frame["transform_matrix"][0][0] *= 2.0
+    json.dump(meta, open(path, "w"))
+  return _blender(wd, _scene(wd, corrupt))
+
+
+LOST_PEER = """
+import sys
+from halo_jax import parallel, pipeline, user_errors
+from configs import default
+c = default.get_config()
+c.data.root = sys.argv[4]  # generated beforehand: two processes must not write one scene
+c.stages = "lo"
+c.budget_s = 0.0
+c.lo.update(steps=100000, batch_rays=64, microbatches=1, log_every=10)
+c.lo.model.update(width=16, depth=2)
+c.lo.sampler.num_samples = 8
+c.parallel.update(multihost=True, data_parallel=True, coordinator="127.0.0.1:" + sys.argv[2],
+                  num_processes=2, process_id=int(sys.argv[1]), heartbeat_s=10)
+parallel.initialize(c.parallel)
+with user_errors.reported():
+  pipeline.run(c, sys.argv[3])
+"""
+
+
+def case_lost_peer(wd):
+  import socket  # pylint: disable=g-import-not-at-top
+  with socket.socket() as s:
+    s.bind(("127.0.0.1", 0))
+    port = str(s.getsockname()[1])
+  root = _scene(wd, lambda r: None)
+  procs = [subprocess.Popen([sys.executable, "-c", LOST_PEER, str(i), port, wd, root], cwd=REPO,
+                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+           for i in range(2)]
+  log = os.path.join(wd, "metrics.jsonl")
+  t0 = time.time()
+  while not (os.path.exists(log) and os.path.getsize(log)) and time.time() - t0 < 300:
+    time.sleep(1)
+  procs[1].kill()
+  t_kill = time.time()
+  _, err = procs[0].communicate(timeout=300)
+  procs[1].wait()
+  lines = [line for line in err.replace("\r", "\n").splitlines() if line.startswith("error:")]
+  return {"exit": procs[0].returncode, "traceback": "Traceback" in err,
+          "message": (lines[0] if lines else err.strip()[-300:])[:400],
+          "seconds": round(time.time() - t_kill, 1),
+          "after_text": f"the surviving process ended {time.time() - t_kill:.0f} s after the kill"}
+
+
 CASES = [
     ("LLFF with L_empty (`--config=configs/llff.py:fern_4view_cpu --config.hi.empty.weight=0.1`)",
      case_llff_empty),
@@ -120,17 +200,22 @@ CASES = [
     ("relaunch with another config (`--config.lo.encoding.L=6` into a finished workdir)",
      case_other_config),
     ("a second launch into a workdir in use", case_concurrent),
-    ("a run that cannot progress (`--config.lo.density_noise=1e39`: every density overflows)",
-     case_diverging),
+    ("a run that cannot progress (`--config.lo.lr_init=1e38 --config.lo.lr_final=1e38`: the "
+     "first step makes the parameters huge, every later loss overflows)", case_diverging),
     ("`kill -9` during training, then the same command again", case_kill_and_resume),
+    ("a training image missing from the scene folder", case_missing_image),
+    ("`transforms_train.json` that is not valid JSON", case_malformed_json),
+    ("a camera pose that is not rigid (a scaled rotation)", case_non_rigid_pose),
+    ("one of two processes of a multi-process job killed (`kill -9`) mid-run", case_lost_peer),
 ]
 
 
 def report(rows) -> str:
   lines = ["# Bad input and faults: what the user sees", "",
            "Generated by `python experiments/faults.py` from `results/faults.json`; each case "
-           "is a real launch on the built-in scene. Exit 2 is a refused input or a run "
-           "stopped for a reason, with one `error:` line on stderr and no traceback.", "",
+           "is a real launch on the built-in scene (TMP: its temporary folder). Exit 2 is a "
+           "refused input or a run stopped for a reason, exit 3 a multi-process job that lost "
+           "a process; either way one `error:` line on stderr and no traceback.", "",
            "| case | exit | traceback | what stderr says | workdir afterwards |",
            "|---|---|---|---|---|"]
   for r in rows:
@@ -141,6 +226,8 @@ def report(rows) -> str:
 
 
 def after_text(r, wd):
+  if "after_text" in r:
+    return r.pop("after_text")
   if "resumed_all_steps_once" in r:
     return ("resumed from its checkpoint; every step logged once"
             if r["resumed_all_steps_once"] else "LOST OR DUPLICATED STEPS")
@@ -157,6 +244,7 @@ def main():
     for i, (name, fn) in enumerate(CASES):
       wd = os.path.join(tmp, f"case{i}")
       r = fn(wd)
+      r["message"] = r["message"].replace(tmp, "TMP")  # the same text on every machine
       r["case"] = name
       r["after"] = after_text(r, wd)
       rows.append(r)

@@ -48,7 +48,7 @@ def run_method(config, workdir, dataset):
   infos = pipeline.run(config, workdir, dataset)
   last = infos[config.final_stage]
   return {"psnr": last["eval"]["psnr"], "ssim": last["eval"]["ssim"],
-          "lpips": last["eval"].get("lpips", float("nan")),
+          "lpips": last["eval"].get("lpips"),
           **({"flicker": last["eval"]["flicker"]} if "flicker" in last["eval"] else {}),
           "wall_s": sum(i["wall_s"] for i in infos.values()),
           "stages": {n: {"wall_s": i["wall_s"], "step": i["step"],
@@ -75,9 +75,12 @@ def write_report(results, workdir, n_test):
   dynamic = any("flicker" in r for r in results.values())
   lines = ["| method | held-out PSNR | SSIM | LPIPS (VGG) |" + (" flicker |" if dynamic else "")
            + " training s |", "|---|---|---|---|" + ("---|" if dynamic else "") + "---|"]
+  def cell(value, fmt):  # '-' where a run has no such metric
+    return "-" if value is None or value != value else format(value, fmt)
+
   for name, r in results.items():
-    flicker = f" {r.get('flicker', float('nan')):.2f} |" if dynamic else ""
-    lines.append(f"| {name} | {r['psnr']:.2f} | {r['ssim']:.3f} | {r.get('lpips', float('nan')):.3f} "
+    flicker = f" {cell(r.get('flicker'), '.2f')} |" if dynamic else ""
+    lines.append(f"| {name} | {r['psnr']:.2f} | {r['ssim']:.3f} | {cell(r.get('lpips'), '.3f')} "
                  f"|{flicker} {r['wall_s']:.0f} |")
   note = (" Flicker: mean |I(t+1) - 2 I(t) + I(t-1)| in 8-bit levels over a video at the "
           "first held-out camera (halo_jax.metrics.temporal_flicker)." if dynamic else "")

@@ -28,6 +28,19 @@ def tiny_config():
   return c
 
 
+def pipeline_config(root, steps, parts=1, data_parallel=False):
+  """tiny_config for a lo -> ray -> hi run on the scene at `root`, Hi started
+  from Lo, every step logged, each step's batch run in `parts` parts."""
+  c = tiny_config()
+  c.data.root = root
+  c.hi.encoding.with_lo = True
+  c.hi.init_from_lo = True
+  c.parallel.data_parallel = data_parallel
+  for name in ("lo", "ray", "hi"):
+    c[name].update(steps=steps, log_every=1, microbatches=parts)
+  return c
+
+
 @pytest.fixture
 def config():
   return tiny_config()

@@ -130,7 +130,8 @@ def test_modules_and_functions_stay_small():
     (datasets.LOADERS, {"blender", "procedural", "dnerf", "llff", "stanford_lf"}),
     (models.MODELS, {"nerf", "deform", "epi"}),
     (samplers.SAMPLERS, {"stratified", "hierarchical", "coarse_fine", "depth_guided", "joint"}),
-    (terms.TERMS, {"consist", "empty", "occlusion"}),
+    (terms.TERMS, {"consist", "empty", "occlusion", "lf_consist", "lf_nerf_consist", "lf_color",
+                   "lf_random"}),
     (base.TRAINERS, {"radiance", "ray_field", "light_field"}),
     (METHODS, {"halo", "nerf_tuned", "nerf_paper", "freenerf", "halo+freenerf"}),
 ])

@@ -7,7 +7,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from conftest import tiny_config
+from conftest import pipeline_config, tiny_config
 from halo_jax import pipeline, raycast, rng, stages
 from halo_jax.stages import loop
 from test_lightfield import lf_config, write_light_field
@@ -70,13 +70,8 @@ def test_microbatched_pipeline_follows_the_whole_batch(scene_root, tmp_path):
   losses of whole-batch training step for step."""
   out = {}
   for parts in (1, 4):
-    c = tiny_config()
-    c.data.root = scene_root
+    c = pipeline_config(scene_root, 6, parts)
     c.eval.lpips = False
-    c.hi.update(init_from_lo=True)
-    c.hi.encoding.with_lo = True
-    for name in ("lo", "ray", "hi"):
-      c[name].update(steps=6, log_every=1, microbatches=parts)
     assert c.hi.empty.weight > 0 and c.hi.density_noise > 0
     out[parts] = _train_losses(c, str(tmp_path / f"mb{parts}"))
   assert [r[:2] for r in out[1]] == [r[:2] for r in out[4]] and len(out[1]) == 18

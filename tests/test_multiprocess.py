@@ -17,21 +17,19 @@ REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 WORKER = """
 import json, sys
 sys.path.insert(0, {tests!r})
-from conftest import tiny_config
-from halo_jax import parallel, pipeline
+from conftest import pipeline_config
+from halo_jax import parallel, pipeline, user_errors
 pid, num = int(sys.argv[1]), int(sys.argv[2])
-c = tiny_config()
-c.data.root = {root!r}
-c.hi.encoding.with_lo = True
-c.hi.init_from_lo = True
+c = pipeline_config({root!r}, {steps})
 c.eval.lpips = False
 for name in ("lo", "ray", "hi"):
-  c[name].update(steps={steps}, log_every=1, checkpoint_every=4, eval_every=0)
+  c[name].update(checkpoint_every=4, eval_every=0)
 if num > 1:
   c.parallel.update(multihost=True, data_parallel=True, coordinator="127.0.0.1:{port}",
                     num_processes=num, process_id=pid, heartbeat_s=10)
 parallel.initialize(c.parallel)
-infos = pipeline.run(c, {wd!r})
+with user_errors.reported():
+  infos = pipeline.run(c, {wd!r})
 print("DONE", json.dumps({{k: v["step"] for k, v in infos.items()}}), flush=True)
 """
 
@@ -86,6 +84,13 @@ def test_a_lost_process_ends_the_other_with_an_error(scene_root, tmp_path):
   procs[1].kill()
   t_kill = time.time()
   _, err = procs[0].communicate(timeout=180)
-  assert procs[0].returncode != 0
-  assert time.time() - t_kill < 120, "the surviving process hung"
-  assert "another task died" in err or "heartbeat" in err, err[-3000:]
+  assert time.time() - t_kill < 60, "the surviving process hung"
+  # In a step's all-reduce the survivor gets a Python error: our one line,
+  # exit 3. Waiting at a checkpoint's barrier it is ended by JAX's
+  # distributed service once the peer missed heartbeat_s of heartbeats: an
+  # abort with JAX's own message (nothing in Python to catch).
+  if procs[0].returncode == 3:
+    assert "another process of the job has probably died" in err and "Traceback" not in err
+  else:
+    assert procs[0].returncode in (-6, 134), err[-3000:]
+    assert "another task died" in err, err[-3000:]

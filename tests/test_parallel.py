@@ -14,7 +14,7 @@ CODE = """
 import json, sys
 sys.path.insert(0, {tests!r})
 import jax, jax.numpy as jnp
-from conftest import tiny_config
+from conftest import pipeline_config, tiny_config
 from halo_jax import parallel, pipeline, stages
 
 assert jax.device_count() == 2, jax.devices()
@@ -25,13 +25,7 @@ x = jax.jit(lambda v: parallel.shard_batch(v * 2.0, mesh))(jnp.arange(8.0))
 shards = sorted(tuple(s.data.tolist()) for s in x.addressable_shards)
 out = {{"shards": shards, "losses": {{}}}}
 for dp, parts in ((False, 1), (True, 1), (True, 2)):
-  c = tiny_config()
-  c.data.root = {root!r}
-  c.hi.encoding.with_lo = True
-  c.hi.init_from_lo = True
-  c.parallel.data_parallel = dp
-  for name in ("lo", "ray", "hi"):
-    c[name].update(steps=8, log_every=1, microbatches=parts)
+  c = pipeline_config({root!r}, 8, parts, dp)
   wd = {wd!r} + "/dp" + str(int(dp)) + "_" + str(parts)
   pipeline.run(c, wd)
   recs = [json.loads(l) for l in open(wd + "/metrics.jsonl")]

@@ -22,7 +22,7 @@ import jax.numpy as jnp
 import numpy as np
 from halo_jax import (evaluate, geometry, lightfield, losses, metrics, models, parallel,
                       ray_fields, raycast, registry, render, rng, samplers)
-from halo_jax.stages import base, batches, loop
+from halo_jax.stages import base, batches, loop, terms
 from halo_jax.stages.radiance import joint_window
 from halo_jax.stages.state import StageState, stage_dir
 
@@ -41,10 +41,8 @@ def check(config, name, dspec):
   registry.check(cfg.model.get("kind") == "epi",
                  f"{name}.model.kind={cfg.model.get('kind')!r}: the light-field stage "
                  "renders an 'epi' field")
-  registry.check("empty" not in cfg or cfg.empty.weight == 0,
-                 f"{name}.empty.weight={cfg.empty.weight if 'empty' in cfg else 0}: L_empty "
-                 "needs random rays from a hemisphere of cameras, which a light field does "
-                 "not have: set it to 0")
+  terms.check_geometries(cfg, name, dspec, f"data.kind={config.data.kind!r} "
+                         f"({dspec.geometry.value} rays)")
 
 
 def init_params(model, ray_model, seed):
@@ -146,50 +144,80 @@ def with_random_background(rgb, acc, keys):
 
 def loss_fn(params, data, key, step, part=None, *, model, ray_model, cfg, theta_n, theta_f,
             mesh=None):
-  """L_rec (+ consist_weight * L_consist for the joint sampler, the same
-  with nerf_consist_weight into the radiance field, + color_weight
-  * the ray field's colour loss where it has a colour head) on the batch, or
-  on its `part` (loop.part_of)."""
+  """L_rec plus the stage's active loss terms (terms.TERMS: the light-field
+  ones below) on the batch, or on its `part` (loop.part_of)."""
   k_idx, k_ren = jax.random.split(key)
   idx = batches.draw(k_idx, None, step, data["rgb"].shape[0], cfg.batch_rays, None, 0)
   keys = jax.random.split(k_ren, cfg.batch_rays)  # per ray: parts draw as the whole
   idx, keys = loop.part_of(idx, part), loop.part_of(keys, part)
   idx = parallel.shard_batch(idx, mesh)
+  window = joint_window(cfg, step)
   out = render_rays(model, ray_model, cfg, params, data["uv"][idx], data["st"][idx], keys,
-                    joint_window(cfg, step), theta_n=theta_n, theta_f=theta_f, randomized=True,
+                    window, theta_n=theta_n, theta_f=theta_f, randomized=True,
                     noise=cfg.density_noise)
-  rgb = out["rgb"]
   if cfg.random_background:
-    rgb = with_random_background(rgb, out["acc"], keys)
-  rec = losses.reconstruction(rgb, data["rgb"][idx])
-  aux = {"psnr": metrics.mse_to_psnr(rec)}
-  loss = rec
+    out = dict(out, rgb=with_random_background(out["rgb"], out["acc"], keys))
+  # fold_in leaves the training rays' keys as they are whatever the terms draw
+  x = terms.Inputs(params, model, [out], {"rgb": data["rgb"][idx], "idx": idx}, data,
+                   (jax.random.fold_in(key, 1),), part, mesh, theta_n, theta_f, False, None,
+                   {"ray_model": ray_model, "window": window, "step": step})
+  loss, aux = terms.total(cfg, step, x, terms.active_terms(cfg))
   if out["tau_ray"] is not None:
-    consist = consist_loss(out, cfg.joint.target)
-    loss = loss + cfg.joint.consist_weight * consist
-    aux.update(consist=consist, alpha=joint_window(cfg, step))
-    if cfg.joint.nerf_consist_weight > 0:
-      # the other half of the paper's L_consist, which the authors' code
-      # detaches: the radiance field's tau pulled towards the ray field's
-      pull = losses.consistency(jax.lax.stop_gradient(out["tau_ray"]),
-                                consist_target(out, cfg.joint.target))
-      loss = loss + cfg.joint.nerf_consist_weight * pull
-    if out["rgb_ray"] is not None:
-      # the ray field's colour head on the pixels (the authors' nelf_rec_loss)
-      ray_rec = losses.reconstruction(out["rgb_ray"], data["rgb"][idx])
-      loss = loss + cfg.joint.color_weight * ray_rec
-      aux.update(ray_psnr=metrics.mse_to_psnr(ray_rec))
-    if cfg.joint.random_rays > 0:
-      # fold_in leaves the training rays' keys as they were without this term
-      random, color = _random_ray_consist(params, data["uv_box"], jax.random.fold_in(key, 1),
-                                          step, part, model=model, ray_model=ray_model,
-                                          cfg=cfg, theta_n=theta_n, theta_f=theta_f, mesh=mesh)
-      loss = loss + cfg.joint.consist_weight * random
-      aux.update(consist_random=random)
-      if color is not None:
-        loss = loss + cfg.joint.color_weight * color
-        aux.update(color_random=color)
+    aux["alpha"] = window
   return loss, aux
+
+
+def _joint(cfg):
+  return cfg.kind == "light_field" and cfg.sampler.kind == "joint"
+
+
+def _consist_value(x, cfg):
+  value = consist_loss(x.outs[0], cfg.joint.target)
+  return value, {"consist": value}
+
+
+def _pull_value(x, cfg):
+  # the other half of the paper's L_consist, which the authors' code
+  # detaches: the radiance field's tau pulled towards the ray field's
+  out = x.outs[0]
+  value = losses.consistency(jax.lax.stop_gradient(out["tau_ray"]),
+                             consist_target(out, cfg.joint.target))
+  return value, {}
+
+
+def _color_value(x, cfg):
+  # the ray field's colour head on the pixels (the authors' nelf_rec_loss)
+  value = losses.reconstruction(x.outs[0]["rgb_ray"], x.batch["rgb"])
+  return value, {"ray_psnr": metrics.mse_to_psnr(value)}
+
+
+def _random_value(x, cfg):
+  random, color = _random_ray_consist(x.params, x.data["uv_box"], x.keys[0], x.extra["step"],
+                                      x.part, model=x.model, ray_model=x.extra["ray_model"],
+                                      cfg=cfg, theta_n=x.near, theta_f=x.far, mesh=x.mesh)
+  value, aux = cfg.joint.consist_weight * random, {"consist_random": random}
+  if color is not None:
+    value = value + cfg.joint.color_weight * color
+    aux["color_random"] = color
+  return value, aux
+
+
+_TWO_PLANE = frozenset({geometry.Geometry.TWO_PLANE})
+terms.TERMS.register("lf_consist", terms.Term(
+    active=_joint, weight=lambda cfg, step: cfg.joint.consist_weight, value=_consist_value,
+    geometries=_TWO_PLANE))
+terms.TERMS.register("lf_nerf_consist", terms.Term(
+    active=lambda cfg: _joint(cfg) and cfg.joint.nerf_consist_weight > 0,
+    weight=lambda cfg, step: cfg.joint.nerf_consist_weight, value=_pull_value,
+    geometries=_TWO_PLANE))
+terms.TERMS.register("lf_color", terms.Term(
+    active=lambda cfg: _joint(cfg) and cfg.joint.color_weight > 0,
+    weight=lambda cfg, step: cfg.joint.color_weight, value=_color_value, geometries=_TWO_PLANE))
+# L_consist (and the colour head's loss) on random rays between the cameras;
+# its value carries the two weights itself, so its own weight is 1.
+terms.TERMS.register("lf_random", terms.Term(
+    active=lambda cfg: _joint(cfg) and cfg.joint.random_rays > 0,
+    weight=lambda cfg, step: 1.0, value=_random_value, geometries=_TWO_PLANE))
 
 
 def _random_ray_consist(params, uv_box, key, step, part, *, model, ray_model, cfg, theta_n,

@@ -243,9 +243,10 @@ class _Run:
       paths = [jax.tree_util.keystr(p) for p, _ in
                jax.tree_util.tree_leaves_with_path(self.state["params"])]
       where = f" in leaf {paths[leaf]}" if 0 <= leaf < len(paths) else ""
-    fields = (f"{self.name}.lr_init, {self.name}.lr_final" if name in ("update", "parameter")
-              else f"{self.name}.batch_rays, {self.name}.sampler, the loss terms' weights and "
-              f"the data")
+    fields = f"{self.name}.lr_init, {self.name}.lr_final"
+    if name in ("loss", "gradient"):  # a huge step before, or the loss itself
+      fields += (f", {self.name}.batch_rays, {self.name}.sampler, the loss terms' weights and "
+                 "the data")
     raise NonFiniteError(
         f"stage {self.name!r}: {streak} steps in a row up to step {step} were not finite "
         f"(limit {self.name}.max_nonfinite={self.cfg.max_nonfinite}); the first, step "
@@ -318,6 +319,16 @@ def train(name: str, cfg, workdir: str, params, loss_fn: Callable, data, seed: i
   base_key = jax.random.PRNGKey(seed)
   bar = tqdm.tqdm(total=cfg.steps, initial=start, desc=name, dynamic_ncols=True,
                   mininterval=1.0)
+  try:
+    step = _loop(run, step_fn, data, base_key, bar, start, cfg)
+  finally:
+    bar.close()  # before any error line, so it starts a line of its own
+  return parallel.to_local(run.state["params"]), step, {"wall_s": run.wall_s,
+                                                        "skipped": int(run.state["skipped"])}
+
+
+def _loop(run, step_fn, data, base_key, bar, start, cfg):
+  """Steps until cfg.steps or cfg.max_seconds; returns the last step taken."""
   step, in_flight = start, None  # in_flight: the loss of the step before the current one
   for step in range(start + 1, cfg.steps + 1):
     if cfg.max_seconds and run.wall_s >= cfg.max_seconds:
@@ -335,6 +346,4 @@ def train(name: str, cfg, workdir: str, params, loss_fn: Callable, data, seed: i
     bar.update(1)
     run.after_step(step, loss, aux, bar)
   run.close(step)
-  bar.close()
-  return parallel.to_local(run.state["params"]), step, {"wall_s": run.wall_s,
-                                                        "skipped": int(run.state["skipped"])}
+  return step

@@ -58,10 +58,7 @@ def check(config, name, dspec):
   registry.check(spec.dynamic or not dspec.dynamic,
                  f"{name}.sampler.kind={cfg.sampler.kind!r} needs a ray field, which has no "
                  f"time input; {where} needs 'stratified' or 'hierarchical'")
-  for tname, term in terms.active_terms(cfg):
-    registry.check(dspec.geometry in term.geometries,
-                   f"{name}.{tname} (loss term {tname!r}) takes "
-                   f"{geometry.names(term.geometries)} rays, not {where}; set its weight to 0")
+  terms.check_geometries(cfg, name, dspec, where)
 
 
 def init_params(config, name, dataset):

@@ -3,7 +3,9 @@ import os
 from typing import Any
 
 import flax
+import jax
 import ml_collections
+import numpy as np
 
 from halo_jax import checkpoint, parallel
 
@@ -53,7 +55,12 @@ def save(workdir: str, state: StageState) -> None:
     # A run killed between saving these params and writing config.json: the
     # resumed run reached the same step, so replace them.
     mngr.delete(int(state.step))
-  checkpoint.save(mngr, int(state.step), {"params": state.params, "step": int(state.step)})
+  params = state.params
+  if jax.process_count() > 1:
+    # one process's copy of the (replicated) parameters: orbax saves host
+    # arrays once, from its primary process
+    params = jax.tree_util.tree_map(np.asarray, params)
+  checkpoint.save(mngr, int(state.step), {"params": params, "step": int(state.step)})
   # config.json last: its presence marks the stage as finished.
   if parallel.is_primary():
     checkpoint.write_config(os.path.join(final, "config.json"), state.config)

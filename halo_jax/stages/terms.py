@@ -1,4 +1,5 @@
-"""Loss terms of a radiance-field stage, one registry entry each.
+"""Loss terms of a stage, one registry entry each, for the 3D and the
+light-field trainers alike (stages/epi.py registers the light-field ones).
 
 L = L_rec (+ coarse_weight L_rec of the first pass) + sum_k w_k(step) L_k over
 the active terms. A term says which config section holds its settings, when
@@ -23,7 +24,8 @@ class Inputs(NamedTuple):
   renders (a list, first pass first), the batch (origins, dirs [B, 3], idx
   [B], times or None), the device data (each prepared term's under its
   name), keys for rays a term draws itself, the micro-batch part, the mesh,
-  the bounds, the background, and the guide (a trained ray field) or None."""
+  the bounds, the background, the guide (a trained ray field) or None, and
+  what else a trainer hands its own terms (`extra`)."""
   params: Any
   model: Any
   outs: list
@@ -36,6 +38,7 @@ class Inputs(NamedTuple):
   far: float
   white: bool
   guide: Any
+  extra: Any = None
 
 
 @dataclasses.dataclass(frozen=True)
@@ -92,7 +95,8 @@ def _consist_value(x: Inputs, cfg):
 
 
 TERMS.register("consist", Term(
-    active=lambda cfg: samplers.SAMPLERS.get(cfg.sampler.kind).trains_guide,
+    active=lambda cfg: (cfg.kind == "radiance"
+                        and samplers.SAMPLERS.get(cfg.sampler.kind).trains_guide),
     weight=lambda cfg, step: cfg.joint.consist_weight,
     value=_consist_value, needs=lambda cfg: ("lo",), prepare=_consist_prepare,
     geometries=geometry.SPATIAL))
@@ -147,6 +151,14 @@ TERMS.register("occlusion", Term(
     active=lambda cfg: "occlusion" in cfg and cfg.occlusion.weight > 0,
     weight=lambda cfg, step: cfg.occlusion.weight,
     value=_occlusion_value, geometries=geometry.SPATIAL))
+
+
+def check_geometries(cfg, name, dspec, where):
+  """ConfigError for an active term the scene's ray geometry cannot take."""
+  for tname, term in active_terms(cfg):
+    registry.check(dspec.geometry in term.geometries,
+                   f"{name}.{tname} (loss term {tname!r}) takes "
+                   f"{geometry.names(term.geometries)} rays, not {where}; set its weight to 0")
 
 
 def total(cfg, step, x: Inputs, terms):
