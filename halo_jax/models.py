@@ -84,7 +84,7 @@ class NeRFMLP(nn.Module):
     pos_freqs, pos_scale: L and s of the point encoding (Lo or Hi P.E.).
     base_freqs, base_scale: when base_freqs > 0, a second (Lo) P.E. placed
       before the first, so a Hi-NeRF can start as an exact copy of a Lo-NeRF
-      (see stages.nerf.transfer_from_lo).
+      (see stages.transfer.transfer_from_lo).
     width, depth, skips: trunk size.
     use_viewdirs: condition colour on the view direction (Hi-NeRF); Lo-NeRF
       leaves it out so its colour is view-independent.

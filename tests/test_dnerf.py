@@ -108,6 +108,7 @@ def test_json_layout_reads_time_and_requires_it_everywhere(scene_root, tmp_path)
     datasets.load(c)
 
 
+@pytest.mark.slow
 def test_time_has_its_own_frequencies():
   m = models.DeformNeRF(pos_freqs=3, time_freqs=5, width=8, depth=1, skips=(),
                         use_viewdirs=False, deform_width=8, deform_depth=1)
@@ -126,6 +127,7 @@ def test_time_has_its_own_frequencies():
   assert abs(float(jax.grad(f)(0.3))) > 0
 
 
+@pytest.mark.slow
 def test_hi_starts_as_a_copy_of_lo_in_space_and_time():
   lo = models.DeformNeRF(pos_freqs=2, time_freqs=2, width=16, depth=2, skips=(),
                          use_viewdirs=False, deform_width=8, deform_depth=2)

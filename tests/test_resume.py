@@ -149,6 +149,7 @@ def test_sigkill_anywhere_then_resume_matches_uninterrupted_run(scene_root, tmp_
   assert train_records(killed) == train_records(ref)
 
 
+@pytest.mark.slow
 def test_workdir_of_another_config_is_refused(config, scene_root, tmp_path):
   config.data.root = scene_root
   config.stages = "lo"
