@@ -38,7 +38,7 @@ def _dynamic(c):
   # Hi trains from scratch, as the baseline does (precrop included), and Lo
   # acts only through L_empty (SPEC sec. 5). Started as a copy of Lo instead
   # (the static scenes' choice), Hi keeps Lo's errors on the frames Lo fits
-  # worst (README, D-NeRF).
+  # worst (docs/dynamic.md).
   c.hi.init_from_lo = False
   c.hi.encoding.with_lo = False
   c.hi.precrop_steps = c.lo.precrop_steps

@@ -42,7 +42,7 @@ def get_config(arg: str = "knights"):
   hi.empty.weight = 0.0
   # Training rays composited onto a random colour (the authors' code): every
   # ray must end in something opaque, as every pixel of these scenes is; the
-  # baseline gets it too (README, light fields).
+  # baseline gets it too (docs/light_fields.md).
   hi.random_background = True
   hi.precrop_steps = 0
   hi.joint.alpha_steps = 20000   # the paper: alpha reaches 0.5 after 20k iterations
@@ -50,7 +50,7 @@ def get_config(arg: str = "knights"):
   # field's (their std 64 -> 5.09), (u, v) near linear across the grid (their
   # std 16 over the knights' camera positions / 1024 -> 0.17): held-out views
   # lie between the cameras, where a ray field with high (u, v) frequencies
-  # is free to wander (README, light fields).
+  # is free to wander (docs/light_fields.md).
   hi.joint.update(std=5.09, uv_std=0.17)
   if cpu:
     c.budget_s = CPU_BUDGET_S
@@ -66,9 +66,9 @@ def get_config(arg: str = "knights"):
     hi.joint.alpha_steps = 1000
     # The authors' sampler (their code, not the paper's formula): half the
     # samples over the whole range, half in a window, so density can still
-    # form outside the window (without it, narrow windows collapse: README,
-    # light fields); with the ray-field frequencies above the window can
-    # narrow to +-0.1.
+    # form outside the window (without it, narrow windows collapse:
+    # docs/light_fields.md); with the ray-field frequencies above the window
+    # can narrow to +-0.1.
     hi.joint.update(full_range=0.5, alpha_final=0.1)
     # The authors' (s', t') frequencies in our units (10 features of std
     # 5.09, the defaults; their std 64 read as ours would be far too high).

@@ -148,15 +148,6 @@ def light_field_stage(cfg):
   return cfg
 
 
-def split_variant(arg: str, suffixes=("cpu", "nerf")):
-  """'lego_8view_cpu_nerf' -> (['lego', '8view'], {'cpu', 'nerf'}): the config
-  variant's parts and the trailing suffixes it carries."""
-  parts, flags = arg.split("_"), set()
-  while parts and parts[-1] in suffixes:
-    flags.add(parts.pop())
-  return parts, flags
-
-
 def _data():
   """The scene and its views (data.kind: a datasets.LOADERS entry)."""
   return ml_collections.ConfigDict(dict(
@@ -271,7 +262,7 @@ def cpu_sized(c: ml_collections.ConfigDict, budget_s: float) -> ml_collections.C
   """Shrinks a config to fit `budget_s` seconds of training on 2 CPU cores.
 
   The HALO stages share the budget as `budget_shares` says. The choices were
-  measured on lego 8-view at 100x100 (README, "CPU protocol"):
+  measured on lego 8-view at 100x100 (docs/results_lego_cpu.md):
   - Lo-NeRF: 128x4 MLP, 32 samples, 4x the paper's learning rate and P.E.
     L=5, s=1 (the paper's one-side Lo setting) instead of s=32: at s=32 the
     nearly linear features need thousands of steps the budget does not have.
@@ -306,7 +297,7 @@ def cpu_sized(c: ml_collections.ConfigDict, budget_s: float) -> ml_collections.C
   c.hi.sampler.num_samples = 32
   c.hi.empty.update(num_rays=256, num_samples=32, bank_rays=32768)
   # 4x the paper's rate, for Hi-NeRF and the NeRF baseline alike: a few
-  # thousand steps are all the budget allows, and both gain from it (README).
+  # thousand steps are all the budget allows, and both gain from it (docs/results_lego_cpu.md).
   c.hi.update(batch_rays=1024, steps=6000, lr_init=2e-3, lr_final=2e-4, checkpoint_every=500,
               log_every=50)
   for name in ("lo", "hi"):

@@ -5,7 +5,7 @@ Datasets, models, samplers, loss terms, stage trainers and methods each keep
 one `Registry`; a new one is a module plus a `register` call, never a branch
 in shared code.
 """
-from typing import Callable, Dict, Generic, Iterator, TypeVar
+from typing import Dict, Generic, Iterator, TypeVar
 
 T = TypeVar("T")
 

@@ -13,7 +13,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from halo_jax import camera, encoding, frequency, losses, models, ray_fields, render, samplers
+from halo_jax import camera, encoding, frequency, losses, ray_fields, render, samplers
 
 EPS32 = 2.0 ** -24
 

@@ -90,7 +90,6 @@ def validate(config) -> None:
           f"{name}.kind={config[name].kind!r} trains on {geometry.names(trainer.geometries)} "
           f"rays; data.kind={config.data.kind!r} has {dspec.geometry.value} rays")
     _check_training(config[name], name)
-    _check_sampler(config[name], name)
     trainer.check(config, name, dspec)
   _check_budget(config, order.needed(config, final))
   _check_auto(config, dspec)

@@ -7,7 +7,7 @@ import imageio.v3 as iio
 import numpy as np
 import pytest
 
-from halo_jax import datasets, pipeline, stages
+from halo_jax import datasets, pipeline
 from halo_jax.registry import ConfigError
 from conftest import tiny_config
 

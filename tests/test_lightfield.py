@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from conftest import SHARED_DATA
-from halo_jax import datasets, lightfield, pipeline, raycast, render, stages
+from halo_jax import datasets, lightfield, pipeline, render
 from halo_jax.datasets import stanford_lf
 from halo_jax.stages import epi, radiance
 
