@@ -161,6 +161,7 @@ def _data():
       far=6.0,
       white_background=True,
       procedural_size=100,     # image size of the generated scene
+      procedural_scene="spheres",  # datasets.procedural.SCENES
       # stanford_lf: disparity range (pixels per grid step at the files' size)
       # that bounds the EPI angle every ray is sampled in, and the signs of u, v
       # along growing grid column, row (datasets/stanford_lf.py says why -1)

@@ -76,6 +76,10 @@ def validate(config) -> None:
   """Raises ConfigError (one line naming the field) for a config that cannot
   run; returns None for one that can."""
   dspec = datasets.spec_of(config.data)
+  if config.data.kind == "procedural":
+    scenes = sorted(datasets.procedural.SCENES)
+    check(config.data.get("procedural_scene", "spheres") in scenes,
+          f"data.procedural_scene={config.data.get('procedural_scene')!r}: must be one of {scenes}")
   for name in order.stage_names(config):  # names the field before the graph reads it
     base.trainer_of(config, name)
     _check_sampler(config[name], name)

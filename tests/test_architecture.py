@@ -15,7 +15,7 @@ PACKAGE = pathlib.Path(__file__).resolve().parent.parent / "halo_jax"
 # may import modules of its own layer or below.
 LAYERS = (
     {"registry", "geometry", "encoding", "camera", "rng", "samplers", "render", "raycast",
-     "losses", "metrics", "lightfield", "frequency", "plots"},
+     "losses", "metrics", "lightfield", "frequency", "plots", "provenance"},
     {"models", "ray_fields", "datasets", "checkpoint", "parallel", "evaluate", "defaults",
      "workdir_lock"},
     {"stages", "tuning", "validate", "methods", "stability", "pipeline", "user_errors"},

@@ -61,13 +61,31 @@ def test_npz_splits_and_every_eighth_image(scene_root, tmp_path):
 @pytest.mark.skipif(not os.path.exists(TINY_DNERF), reason="shared D-NeRF data absent")
 def test_tiny_dnerf_lego_split():
   from configs import dnerf
-  c = dnerf.get_config("lego_cpu")
+  c = dnerf.get_config("tiny_cpu")
   c.data.root = TINY_DNERF
   ds = datasets.load(c.data)
   # 50 training frames, every 8th: frames 0, 8, ..., 48.
   assert ds.train.names == tuple(f"train_{i:03d}" for i in range(0, 50, 8))
   assert ds.test.images.shape == (20, 100, 100, 3)
   assert ds.test.times[0] == 0.0 and ds.test.times[-1] == 1.0
+
+
+@pytest.mark.parametrize("scene, num_train", [("lego", 7), ("hook", 13), ("jumpingjacks", 25)])
+def test_dnerf_scene_folders_cpu_protocol(scene, num_train):
+  """Any D-NeRF scene by name: every 8th training frame, the 20 test frames,
+  100x100 on white (the paper's 400x400 protocol at factor 8)."""
+  from configs import dnerf
+  c = dnerf.get_config(f"{scene}_cpu")
+  c.data.root = os.path.join(SHARED_DATA, "dnerf", scene)
+  if not os.path.isdir(c.data.root):
+    pytest.skip("shared D-NeRF scene folders absent")
+  assert c.data.white_background and c.data.factor == 8
+  ds = datasets.load(c.data)
+  assert ds.train.images.shape == (num_train, 100, 100, 3)
+  assert ds.test.images.shape == (20, 100, 100, 3)
+  # composited on white: the corners are background
+  np.testing.assert_allclose(ds.test.images[:, 0, 0], 1.0, atol=1e-2)
+  assert dnerf.get_config(scene).data.factor == 2
 
 
 @pytest.mark.parametrize("override, message", [

@@ -94,10 +94,12 @@ def _load_dnerf(cfg, workdir=""):
 
 
 def _load_procedural(cfg, workdir=""):
-  """The built-in scene; with an empty data.root it is generated into
-  `<workdir>/scene` (or a temporary folder), so the default job needs no data."""
-  root = cfg.root or os.path.join(workdir or "/tmp/halo_jax", "scene")
-  procedural.generate(root, size=cfg.procedural_size)
+  """A built-in scene (procedural.SCENES[data.procedural_scene]); with an
+  empty data.root it is generated into `<workdir>/scene_<name>` (or a
+  temporary folder), so the default job needs no data."""
+  name = cfg.procedural_scene
+  root = cfg.root or os.path.join(workdir or "/tmp/halo_jax", f"scene_{name}")
+  procedural.generate(root, size=cfg.procedural_size, scene=name)
   return _load_posed(cfg, root, blender, _blender_split_names)
 
 

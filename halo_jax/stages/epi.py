@@ -43,6 +43,10 @@ def check(config, name, dspec):
                  "renders an 'epi' field")
   terms.check_geometries(cfg, name, dspec, f"data.kind={config.data.kind!r} "
                          f"({dspec.geometry.value} rays)")
+  # The EPI field's Fourier features have no ordered bands to open one by one.
+  registry.check(cfg.get("freq_reg", {}).get("end", 0.0) == 0.0,
+                 f"{name}.freq_reg.end={cfg.freq_reg.end!r}: the light-field stage has no "
+                 "P.E. bands to schedule (FreeNeRF's mask); set it to 0")
 
 
 def init_params(model, ray_model, seed):

@@ -307,24 +307,65 @@ def train(name: str, cfg, workdir: str, params, loss_fn: Callable, data, seed: i
       replicated on it and loss_fn shards its batch.
 
   Returns:
-    (params, step, info) with info = {'wall_s', 'skipped'}.
+    (params, step, info) with info = {'wall_s', 'skipped', 'compile_s'}:
+    training seconds exclude the step's compilation (compile_s) and held-out
+    evaluations.
   """
   log = log or MetricsLog(workdir)
   tx = optimizer(cfg)
-  step_fn = make_step(loss_fn, tx, cfg.microbatches)
   train_state, wall_s, mngr = _start(name, workdir, params, tx, mesh, log)
   run = _Run(name, cfg, train_state, wall_s, mngr, log, eval_fn, wall_offset)
   data = parallel.replicate(data, mesh)
   start = int(train_state["step"])
   base_key = jax.random.PRNGKey(seed)
-  bar = tqdm.tqdm(total=cfg.steps, initial=start, desc=name, dynamic_ncols=True,
-                  mininterval=1.0)
+  # Compiled before the clock starts: a time budget buys training steps, and
+  # a method of three stages would otherwise pay three compilations.
+  t0 = time.perf_counter()
+  step_fn = make_step(loss_fn, tx, cfg.microbatches).lower(run.state, data, base_key).compile()
+  compile_s = time.perf_counter() - t0
+  bar = ProgressBar(name, cfg, start, wall_s)
   try:
     step = _loop(run, step_fn, data, base_key, bar, start, cfg)
   finally:
     bar.close()  # before any error line, so it starts a line of its own
   return parallel.to_local(run.state["params"]), step, {"wall_s": run.wall_s,
-                                                        "skipped": int(run.state["skipped"])}
+                                                        "skipped": int(run.state["skipped"]),
+                                                        "compile_s": compile_s}
+
+
+class ProgressBar:
+  """tqdm over training seconds when the stage has a time budget (so its ETA
+  is the budget's), else over steps; shows steps and rays/s either way."""
+
+  def __init__(self, name, cfg, start_step, start_wall_s):
+    self.timed = bool(cfg.max_seconds)
+    self.rays = cfg.get("batch_rays", 0)  # 0: no rays/s shown
+    self.start_step, self.start_wall = start_step, start_wall_s
+    if self.timed:
+      self.bar = tqdm.tqdm(total=round(cfg.max_seconds, 1), initial=round(start_wall_s, 1),
+                           desc=name, unit="s", dynamic_ncols=True, mininterval=1.0,
+                           bar_format="{l_bar}{bar}| {n:.0f}/{total:.0f} s "
+                                      "[{elapsed}<{remaining}{postfix}]")
+    else:
+      self.bar = tqdm.tqdm(total=cfg.steps, initial=start_step, desc=name, unit="step",
+                           dynamic_ncols=True, mininterval=1.0)
+    self.shown = {}
+
+  def advance(self, step, seconds, wall_s):
+    if self.timed:
+      self.bar.update(seconds)
+    else:
+      self.bar.update(1)
+    if self.rays and wall_s > self.start_wall:
+      rate = self.rays * (step - self.start_step) / (wall_s - self.start_wall)
+      self.shown.update(step=step, **{"rays/s": f"{rate:.3g}"})
+
+  def set_postfix(self, **shown):
+    self.shown.update(shown)
+    self.bar.set_postfix(**self.shown, refresh=False)
+
+  def close(self):
+    self.bar.close()
 
 
 def _loop(run, step_fn, data, base_key, bar, start, cfg):
@@ -342,8 +383,9 @@ def _loop(run, step_fn, data, base_key, bar, start, cfg):
     if in_flight is not None:
       in_flight.block_until_ready()
     in_flight = loss
-    run.wall_s += time.perf_counter() - t0
-    bar.update(1)
+    dt = time.perf_counter() - t0
+    run.wall_s += dt
+    bar.advance(step, dt, run.wall_s)
     run.after_step(step, loss, aux, bar)
   run.close(step)
   return step

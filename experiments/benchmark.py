@@ -1,0 +1,141 @@
+"""Runs a benchmark suite (experiments/suites.py): every scene x method x seed.
+
+  python experiments/benchmark.py --suite=cpu [--mode=time|steps] [--only=REGEX]
+  python experiments/benchmark.py --suite=cpu --dry_run      # the plan and what is done
+
+Mode 'time' gives every method the suite's training wall-clock (budget_s,
+split over a method's stages by config.budget_shares); mode 'steps' gives
+every method the suite's number of training steps, split the same way.
+Each finished run writes one small JSON file,
+  results/<suite>/<mode>/<scene>/<method>/seed<k>.json
+(per-view PSNR / SSIM / LPIPS, the held-out curve against seconds, steps,
+provenance), which is committed: a run whose file exists is skipped, so a
+suite resumes across machines from the repository. A run killed part way
+resumes from its checkpoints in --scratch on the same machine. Runs go seed
+by seed (every scene and method at seed 0 first), so a partial suite covers
+every scene. experiments/report.py turns the files into docs/results/.
+"""
+import json
+import os
+import re
+import sys
+import time
+
+from absl import app, flags, logging
+
+if __package__ in (None, ""):  # run as a script: the repository root holds `experiments`
+  sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+from experiments import runs, suites  # pylint: disable=g-import-not-at-top
+
+FLAGS = flags.FLAGS
+flags.DEFINE_enum("suite", "cpu", sorted(suites.SUITES), "Suite to run.")
+flags.DEFINE_enum("mode", "time", ["time", "steps"], "Equal wall-clock or equal steps.")
+flags.DEFINE_string("results", os.path.join(runs.REPO, "results"), "Result files' root.")
+flags.DEFINE_string("scratch", "/tmp/halo_bench", "Workdirs (checkpoints, renders).")
+flags.DEFINE_string("only", "", "Run only runs whose 'scene/method/seed<k>' matches this regex.")
+flags.DEFINE_integer("max_runs", 0, "Stop after this many runs (0: all).")
+flags.DEFINE_bool("dry_run", False, "Print the plan and each run's state; train nothing.")
+
+
+def data_root() -> str:
+  return os.environ.get("HALO_DATA", os.path.join(runs.REPO, "..", "shared", "data"))
+
+
+def plan(suite: suites.Suite, only: str = ""):
+  """[(scene, method, seed), ...] seed-major, filtered by the regex `only`."""
+  out = []
+  for seed in range(max(s.seeds for s in suite.scenes)):
+    for scene in suite.scenes:
+      if seed < scene.seeds:
+        out += [(scene, m, seed) for m in scene.methods
+                if re.search(only, f"{scene.name}/{m}/seed{seed}")]
+  return out
+
+
+def result_path(results, suite_name, mode, scene, method, seed):
+  return os.path.join(results, suite_name, mode, scene.name, method, f"seed{seed}.json")
+
+
+def configure(suite: suites.Suite, scene: suites.Scene, method: str, seed: int, mode: str,
+              scratch: str):
+  """The run's config: the scene's config as `method`, this seed and mode."""
+  from halo_jax import methods, pipeline  # pylint: disable=g-import-not-at-top
+  c = methods.apply(runs.load_config(scene.config), method)
+  c.seed = seed
+  if c.data.kind == "procedural" and not c.data.root:  # generated once, shared by runs
+    c.data.root = os.path.join(scratch, "scenes",
+                               f"{c.data.procedural_scene}_{c.data.procedural_size}")
+  for field, value in suite.overrides:
+    runs.set_field(c, field, value)
+  names = pipeline.needed(c, c.final_stage)
+  shares = {n: c.budget_shares[n] for n in names}
+  total = sum(shares.values())
+  if mode == "time":
+    c.budget_s = suite.budget_s
+    for n in names:
+      c[n].eval_every_s = suite.budget_s / suite.curve_points
+  else:
+    c.budget_s = 0.0
+    for n in names:
+      c[n].steps = max(1, round(suite.steps * shares[n] / total))
+      c[n].max_seconds = 0.0
+      # the curve's points evenly spread over the method's steps
+      c[n].eval_every = max(1, int(suite.steps / suite.curve_points))
+  return c
+
+
+def run_one(suite_name, suite, scene, method, seed, mode, results, scratch) -> dict:
+  """Trains one run (resuming its workdir) and writes its result file."""
+  c = configure(suite, scene, method, seed, mode, scratch)
+  workdir = os.path.join(scratch, suite_name, mode, scene.name, method, f"seed{seed}")
+  start = time.time()
+  record = runs.run_method(c, workdir)
+  record.update(suite=suite_name, scene=scene.name, config=scene.config, method=method,
+                seed=seed, mode=mode, budget_s=c.budget_s,
+                target_steps=suite.steps if mode == "steps" else None,
+                run_seconds=round(time.time() - start, 1))
+  path = result_path(results, suite_name, mode, scene, method, seed)
+  os.makedirs(os.path.dirname(path), exist_ok=True)
+  with open(path + ".tmp", "w") as f:
+    json.dump(record, f, indent=1)
+  os.replace(path + ".tmp", path)  # a killed write leaves no half file
+  return record
+
+
+def _state(path, scene):
+  if os.path.exists(path):
+    return "done"
+  if scene.needs and not os.path.isdir(os.path.join(data_root(), scene.needs)):
+    return "no data"
+  return "to run"
+
+
+def main(argv):
+  del argv
+  logging.set_verbosity(logging.WARNING)
+  suite = suites.SUITES[FLAGS.suite]
+  if suite.cores and hasattr(os, "sched_setaffinity"):
+    # The last cores, before JAX starts its thread pool: the same for every run.
+    cores = sorted(os.sched_getaffinity(0))[-suite.cores:]
+    os.sched_setaffinity(0, cores)
+  todo = plan(suite, FLAGS.only)
+  done = 0
+  for scene, method, seed in todo:
+    path = result_path(FLAGS.results, FLAGS.suite, FLAGS.mode, scene, method, seed)
+    state = _state(path, scene)
+    tag = f"{scene.name}/{method}/seed{seed}"
+    if FLAGS.dry_run or state != "to run":
+      print(f"{state:8} {tag}", flush=True)
+      continue
+    if FLAGS.max_runs and done >= FLAGS.max_runs:
+      break
+    r = run_one(FLAGS.suite, suite, scene, method, seed, FLAGS.mode, FLAGS.results,
+                FLAGS.scratch)
+    done += 1
+    print(f"ran      {tag}: PSNR {r['psnr']:.2f}  SSIM {r['ssim']:.3f}  LPIPS "
+          f"{r['lpips'] if r['lpips'] is None else round(r['lpips'], 3)}  "
+          f"{r['wall_s']:.0f} s training, {r['run_seconds']:.0f} s in all", flush=True)
+
+
+if __name__ == "__main__":
+  app.run(main)

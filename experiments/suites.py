@@ -1,0 +1,70 @@
+"""Benchmark suites as data: which scenes, methods and seeds, and each run's budget.
+
+A suite is run by experiments/benchmark.py and reported by experiments/report.py.
+Scene configs are '<file>:<variant>' strings, as --config takes them; `needs`
+is the data folder (under $HALO_DATA) a scene reads, so a machine without it
+skips the scene instead of failing.
+"""
+import dataclasses
+from typing import Tuple
+
+ALL_METHODS = ("nerf_paper", "nerf_tuned", "freenerf", "halo", "halo+freenerf")
+# FreeNeRF's mask schedules ordered P.E. bands; the light-field field has
+# none, and nerf_paper's coarse+fine sampler is for 3D rays.
+LIGHT_FIELD_METHODS = ("nerf_tuned", "halo")
+
+
+@dataclasses.dataclass(frozen=True)
+class Scene:
+  name: str                  # result folder
+  config: str                # 'configs/<file>.py:<variant>' (CPU-sized)
+  seeds: int
+  needs: str = ""            # data folder under $HALO_DATA ('' for built-in scenes)
+  methods: Tuple[str, ...] = ALL_METHODS
+
+
+@dataclasses.dataclass(frozen=True)
+class Suite:
+  scenes: Tuple[Scene, ...]
+  budget_s: float            # training seconds per method and run (mode 'time')
+  steps: int                 # training steps per method and run (mode 'steps')
+  cores: int = 0             # CPU cores the runs are pinned to (0: all)
+  curve_points: int = 6      # held-out evaluations during training, for the curves
+  description: str = ""
+  overrides: Tuple[Tuple[str, object], ...] = ()  # (dotted field, value) for every run
+
+
+CPU = Suite(
+    description=(
+        "Every method on every scene we have, on one CPU core (so that a second job "
+        "can share the machine without disturbing the timings), 240 s of training "
+        "per method and run; three seeds on lego and the D-NeRF scenes, two elsewhere."),
+    cores=1, budget_s=240.0, steps=1500,
+    scenes=(
+        Scene("lego_8view", "configs/blender.py:lego_8view_cpu", 3, "nerf_synthetic/lego"),
+        Scene("dnerf_lego", "configs/dnerf.py:lego_cpu", 3, "dnerf/lego"),
+        Scene("dnerf_hook", "configs/dnerf.py:hook_cpu", 3, "dnerf/hook"),
+        Scene("dnerf_jumpingjacks", "configs/dnerf.py:jumpingjacks_cpu", 3,
+              "dnerf/jumpingjacks"),
+        Scene("lattice", "configs/procedural.py:lattice_8view_cpu", 2),
+        Scene("spheres", "configs/procedural.py:spheres_8view_cpu", 2),
+        Scene("lego_oneside", "configs/blender.py:lego_oneside_cpu", 2, "nerf_synthetic/lego"),
+        Scene("fern_4view", "configs/llff.py:fern_4view_cpu", 2, "nerf_llff_data/fern"),
+        Scene("knights", "configs/stanford_lf.py:knights_cpu", 2, "stanford_lf/knights",
+              LIGHT_FIELD_METHODS),
+    ))
+
+# A few seconds per run: the benchmark's own test and a quick look at the machinery.
+SMOKE = Suite(
+    description="Two methods on the built-in scene for a few seconds (tests).",
+    budget_s=4.0, steps=6, curve_points=2,
+    overrides=(("data.procedural_size", 32), ("data.test_views", "r_0,r_100"),
+               ("eval.curve_views", 1), ("lo.model.width", 32), ("hi.model.width", 32),
+               ("ray.model.width", 32), ("lo.batch_rays", 128), ("hi.batch_rays", 128),
+               ("ray.batch_rays", 128), ("ray.bank_rays", 1024), ("hi.empty.bank_rays", 1024),
+               ("lo.sampler.num_samples", 8), ("hi.sampler.num_samples", 8),
+               ("baseline.num_samples", 8)),
+    scenes=(Scene("spheres", "configs/procedural.py:spheres_8view_cpu", 1,
+                  methods=("nerf_tuned", "halo")),))
+
+SUITES = {"cpu": CPU, "smoke": SMOKE}

@@ -1,0 +1,51 @@
+"""The benchmark suite's plan, per-run configs and result files."""
+import json
+import os
+import sys
+
+import pytest
+
+sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
+from experiments import benchmark, suites  # pylint: disable=g-import-not-at-top
+
+
+def test_cpu_plan_is_seed_major_and_complete():
+  todo = benchmark.plan(suites.CPU)
+  expected = sum(s.seeds * len(s.methods) for s in suites.CPU.scenes)
+  assert len(todo) == expected == len({(s.name, m, k) for s, m, k in todo})
+  seeds = [k for _, _, k in todo]
+  assert seeds == sorted(seeds)  # every scene at seed 0 before any at seed 1
+  assert {s.name for s, _, k in todo if k == 0} == {s.name for s in suites.CPU.scenes}
+  only = benchmark.plan(suites.CPU, only=r"^lego_8view/halo/")
+  assert [(s.name, m, k) for s, m, k in only] == [("lego_8view", "halo", k) for k in range(3)]
+
+
+@pytest.mark.parametrize("method", ["nerf_tuned", "halo"])
+def test_modes_split_budget_and_steps_by_share(method, tmp_path):
+  scene = suites.SMOKE.scenes[0]
+  timed = benchmark.configure(suites.CPU, scene, method, 1, "time", str(tmp_path))
+  assert timed.seed == 1 and timed.budget_s == suites.CPU.budget_s
+  stepped = benchmark.configure(suites.CPU, scene, method, 1, "steps", str(tmp_path))
+  assert stepped.budget_s == 0
+  names = ["hi"] if method == "nerf_tuned" else ["lo", "ray", "hi"]
+  total = sum(stepped.budget_shares[n] for n in names)
+  for n in names:
+    assert stepped[n].steps == round(suites.CPU.steps * stepped.budget_shares[n] / total)
+  assert abs(sum(stepped[n].steps for n in names) - suites.CPU.steps) <= len(names)
+
+
+@pytest.mark.slow
+def test_smoke_suite_writes_and_skips(tmp_path):
+  results, scratch = str(tmp_path / "results"), str(tmp_path / "scratch")
+  scene = suites.SMOKE.scenes[0]
+  r = benchmark.run_one("smoke", suites.SMOKE, scene, "nerf_tuned", 0, "time", results, scratch)
+  path = benchmark.result_path(results, "smoke", "time", scene, "nerf_tuned", 0)
+  with open(path) as f:
+    saved = json.load(f)
+  assert saved["psnr"] == pytest.approx(r["psnr"])
+  assert set(saved["per_view"]) == {"r_0", "r_100"}
+  assert saved["curve"] and all(t <= saved["wall_s"] + 1e-6 for t, _ in saved["curve"])
+  for field in ("versions", "device", "cpu", "git", "matmul_peak_gflops", "command"):
+    assert field in saved["provenance"]
+  assert benchmark._state(path, scene) == "done"  # pylint: disable=protected-access
+  assert os.path.getsize(path) < 20000
