@@ -20,6 +20,7 @@ import os
 import re
 import sys
 import time
+import traceback
 
 from absl import app, flags, logging
 
@@ -119,7 +120,7 @@ def main(argv):
     cores = sorted(os.sched_getaffinity(0))[-suite.cores:]
     os.sched_setaffinity(0, cores)
   todo = plan(suite, FLAGS.only)
-  done = 0
+  done, failed = 0, []
   for scene, method, seed in todo:
     path = result_path(FLAGS.results, FLAGS.suite, FLAGS.mode, scene, method, seed)
     state = _state(path, scene)
@@ -129,12 +130,21 @@ def main(argv):
       continue
     if FLAGS.max_runs and done >= FLAGS.max_runs:
       break
-    r = run_one(FLAGS.suite, suite, scene, method, seed, FLAGS.mode, FLAGS.results,
-                FLAGS.scratch)
+    try:
+      r = run_one(FLAGS.suite, suite, scene, method, seed, FLAGS.mode, FLAGS.results,
+                  FLAGS.scratch)
+    except Exception:  # pylint: disable=broad-except
+      # One broken run does not stop the suite; the suite's exit status says so.
+      traceback.print_exc()
+      print(f"FAILED   {tag}", flush=True)
+      failed.append(tag)
+      continue
     done += 1
     print(f"ran      {tag}: PSNR {r['psnr']:.2f}  SSIM {r['ssim']:.3f}  LPIPS "
           f"{r['lpips'] if r['lpips'] is None else round(r['lpips'], 3)}  "
           f"{r['wall_s']:.0f} s training, {r['run_seconds']:.0f} s in all", flush=True)
+  if failed:
+    sys.exit(f"{len(failed)} run(s) failed: {', '.join(failed)}")
 
 
 if __name__ == "__main__":
