@@ -24,14 +24,16 @@ import traceback
 
 from absl import app, flags, logging
 
+REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 if __package__ in (None, ""):  # run as a script: the repository root holds `experiments`
-  sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-from experiments import runs, suites  # pylint: disable=g-import-not-at-top
+  sys.path.insert(0, REPO)
+from experiments import suites  # pylint: disable=g-import-not-at-top
+from halo_jax import runs  # pylint: disable=g-import-not-at-top
 
 FLAGS = flags.FLAGS
 flags.DEFINE_enum("suite", "cpu", sorted(suites.SUITES), "Suite to run.")
 flags.DEFINE_enum("mode", "time", ["time", "steps"], "Equal wall-clock or equal steps.")
-flags.DEFINE_string("results", os.path.join(runs.REPO, "results"), "Result files' root.")
+flags.DEFINE_string("results", os.path.join(REPO, "results"), "Result files' root.")
 flags.DEFINE_string("scratch", "/tmp/halo_bench", "Workdirs (checkpoints, renders).")
 flags.DEFINE_string("only", "", "Run only runs whose 'scene/method/seed<k>' matches this regex.")
 flags.DEFINE_integer("max_runs", 0, "Stop after this many runs (0: all).")
@@ -39,7 +41,7 @@ flags.DEFINE_bool("dry_run", False, "Print the plan and each run's state; train 
 
 
 def data_root() -> str:
-  return os.environ.get("HALO_DATA", os.path.join(runs.REPO, "..", "shared", "data"))
+  return os.environ.get("HALO_DATA", os.path.join(REPO, "..", "shared", "data"))
 
 
 def plan(suite: suites.Suite, only: str = ""):

@@ -10,7 +10,7 @@ import json
 from absl import app, flags, logging
 from ml_collections import config_flags
 
-from halo_jax import parallel, pipeline, user_errors
+from halo_jax import config_files, parallel, pipeline, user_errors
 
 FLAGS = flags.FLAGS
 config_flags.DEFINE_config_file("config", None, "Config file (path[:variant]).",
@@ -29,5 +29,10 @@ def main(argv):
   print(json.dumps({"workdir": FLAGS.workdir}))
 
 
+def cli():
+  """The halo-train console script."""
+  app.run(main, argv=config_files.resolve_argv())
+
+
 if __name__ == "__main__":
-  app.run(main)
+  cli()

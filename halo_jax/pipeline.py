@@ -12,7 +12,7 @@ import copy
 import json
 import os
 
-from halo_jax import datasets, parallel, stages, tuning, validate, workdir_lock
+from halo_jax import datasets, parallel, provenance, stages, tuning, validate, workdir_lock
 from halo_jax.stages import base, loop
 from halo_jax.stages.order import needed, parse_stages, stage_names
 from halo_jax.stages.state import load, save, stage_dir
@@ -100,6 +100,7 @@ def _run(config, workdir, dataset):
     info.update(step=int(state.step), cumulative_wall_s=wall)
     save(workdir, state)
     if parallel.is_primary():
+      info["provenance"] = provenance.collect()
       with open(_info_path(workdir, name), "w") as f:
         json.dump(info, f, indent=1)
     states[name], infos[name] = state, info

@@ -9,13 +9,14 @@ import jax
 
 from halo_jax.datasets.base import DataError
 from halo_jax.registry import ConfigError
+from halo_jax.restore import NothingToRestore
 from halo_jax.stages.loop import NonFiniteError
 from halo_jax.stages.state import StageMissing
 from halo_jax.stages.workdir import WorkdirMismatch
 from halo_jax.workdir_lock import WorkdirLocked
 
-USER_ERRORS = (ConfigError, DataError, NonFiniteError, StageMissing, WorkdirLocked,
-               WorkdirMismatch)
+USER_ERRORS = (ConfigError, DataError, NonFiniteError, NothingToRestore, StageMissing,
+               WorkdirLocked, WorkdirMismatch)
 EXIT_CODE = 2
 LOST_PEER_EXIT_CODE = 3
 

@@ -15,11 +15,14 @@ PACKAGE = pathlib.Path(__file__).resolve().parent.parent / "halo_jax"
 # may import modules of its own layer or below.
 LAYERS = (
     {"registry", "geometry", "encoding", "camera", "rng", "samplers", "render", "raycast",
-     "losses", "metrics", "lightfield", "frequency", "plots", "provenance"},
+     "losses", "metrics", "lightfield", "frequency", "plots", "provenance",
+     "tensorboard", "video", "config_files"},
     {"models", "ray_fields", "datasets", "checkpoint", "parallel", "evaluate", "defaults",
+     "camera_paths",
      "workdir_lock"},
-    {"stages", "tuning", "validate", "methods", "stability", "pipeline", "user_errors"},
-    {"main", "render.__main__"},
+    {"stages", "tuning", "validate", "methods", "stability", "pipeline", "user_errors",
+     "restore", "runs"},
+    {"main", "render.__main__", "evaluate.__main__", "compare", "sweep"},
 )
 
 

@@ -1,7 +1,7 @@
 """Volume rendering along rays (NeRF eq. 1), stable for stiff densities.
 
-`python -m halo_jax.render` renders a trained run along a camera path; see
-`halo_jax/render/__main__.py`.
+`python -m halo_jax.render` renders a finished run along a camera path (colour,
+depth and opacity videos); see `halo_jax/render/__main__.py`.
 """
 
 import jax.numpy as jnp

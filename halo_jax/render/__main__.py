@@ -1,9 +1,13 @@
-"""Renders a trained stage along a camera path, colour and depth side by side.
+"""Renders a finished stage along a camera path: colour, depth and opacity videos.
 
-  python -m halo_jax.render --workdir=DIR [--stage=hi] [--frames=40] [--out=PATH.gif]
+  python -m halo_jax.render --workdir=DIR [--stage=hi] [--path=KIND|FILE] [--frames=60]
 
-For Blender-style scenes the path is the 360-degree orbit at the test views'
-elevation and radius. Writes an animated GIF (and the first frame as PNG).
+Paths (halo_jax/camera_paths.py): an orbit for 360-degree scenes, a spiral for
+forward-facing ones, a (u, v) ellipse for light fields, a time sweep at a fixed
+camera ('time') and an orbit through time ('orbit_time', the default) for
+dynamic scenes, or a file of camera-to-world matrices. Writes
+DIR/render/<stage>_<path>_{color,depth,acc}.mp4 (GIF where imageio's ffmpeg
+plugin is not installed) and the first colour frame as PNG.
 """
 import os
 
@@ -11,79 +15,66 @@ from absl import app, flags, logging
 import imageio.v3 as iio
 import numpy as np
 
-from halo_jax import camera, checkpoint, datasets, evaluate, geometry, models, raycast
-from halo_jax import ray_fields, stages
-from halo_jax.stages import base
+from halo_jax import camera_paths, evaluate, restore, user_errors, video
+from halo_jax.datasets import llff
+from halo_jax.geometry import Geometry
 
 FLAGS = flags.FLAGS
-flags.DEFINE_string("workdir", None, "A run folder written by halo_jax.main.")
-flags.DEFINE_string("stage", None, "'hi' or 'lo' (default: the latest finished of hi, lo).")
-flags.DEFINE_integer("frames", 40, "Frames along the orbit.")
-flags.DEFINE_float("fps", 10.0, "Frames per second of the GIF.")
-flags.DEFINE_string("out", None, "Output GIF (default DIR/render/<stage>_orbit.gif).")
-flags.mark_flags_as_required(["workdir"])
 
 
-def _finished(workdir, name):
-  return os.path.exists(os.path.join(workdir, name, "final", "config.json"))
+def define_flags():
+  """The command's flags (defined on launch, not on import, so that both
+  commands' functions can be imported together)."""
+  flags.DEFINE_string("workdir", None, "A run folder written by halo_jax.main.")
+  flags.DEFINE_string("stage", None, "Stage to render (default: the run's output stage).")
+  flags.DEFINE_string("path", None, "A path kind (orbit, orbit_time, time, spiral, uv) or a "
+                      ".npy / .json file of cameras (default: the scene kind's first).")
+  flags.DEFINE_integer("frames", 60, "Frames along a generated path.")
+  flags.DEFINE_float("fps", 20.0, "Frames per second.")
+  flags.DEFINE_string("out", None, "Output folder (default DIR/render).")
+  flags.DEFINE_string("data_root", "", "Scene folder, if not where the run found it.")
+  flags.mark_flags_as_required(["workdir"])
 
 
-def orbit_for(views):
-  """Orbit at the mean radius and elevation of `views`' cameras."""
-  pos = views.c2w[:, :3, 3]
-  radius = float(np.linalg.norm(pos, axis=-1).mean())
-  elevation = float(np.rad2deg(np.arcsin(np.clip(pos[:, 2] / np.linalg.norm(pos, axis=-1),
-                                                 -1, 1))).mean())
-  return radius, elevation
+def render_path(workdir, stage=None, path=None, frames=60, fps=20.0, out=None,
+                data_root=""):
+  """Renders and writes the videos; returns {'color', 'depth', 'acc': file, 'frames': n}."""
+  run = restore.load(workdir, stage, data_root)
+  ds = run.dataset
+  path = path or camera_paths.kinds(ds.geometry, ds.dynamic)[0]
+  bounds = llff.read_poses(run.config.data.root)[3] if ds.geometry == Geometry.NDC else None
+  views = camera_paths.views_for(path, ds, frames, bounds)
+  r = evaluate.render_views(run.render, views, run.config.eval.chunk)
+  out = out or os.path.join(workdir, "render")
+  label = os.path.splitext(os.path.basename(path))[0]
+  stem = os.path.join(out, f"{run.stage}_{label}")
+  seen = r["acc"] > 0.5
+  depth = r["depth"]
+  lo, hi = (np.percentile(depth[seen], [1, 99]) if seen.any() else (0.0, 1.0))
+  written = {
+      "color": video.write(stem + "_color", r["rgb"], fps),
+      "depth": video.write(stem + "_depth", video.colorize(depth, lo, hi, mask=seen), fps),
+      "acc": video.write(stem + "_acc", np.repeat(r["acc"][..., None], 3, -1), fps),
+      "frames": len(views.names), "size": (views.height, views.width)}
+  iio.imwrite(stem + "_color_frame0.png", video.to_uint8(r["rgb"][0]))
+  return written
 
 
 def main(argv):
   del argv
   logging.set_verbosity(logging.WARNING)
-  wd = FLAGS.workdir
-  name = FLAGS.stage or next((n for n in ("hi", "lo") if _finished(wd, n)), None)
-  if name is None or not _finished(wd, name):
-    raise SystemExit(f"{wd}: no finished stage {FLAGS.stage or 'hi or lo'} to render")
-  config = checkpoint.read_config(os.path.join(wd, name, "final", "config.json"))
-  spec = datasets.spec_of(config.data)
-  if spec.geometry != geometry.Geometry.SPHERE or spec.dynamic or config[name].sampler.kind == "joint":
-    # An orbit is a 360-degree path of a static scene with a separate ray stage.
-    raise SystemExit(f"{wd}: orbits are rendered for static 360-degree scenes (no joint "
-                     f"sampler); this run is {config.data.kind!r} with sampler "
-                     f"{config[name].sampler.kind!r}. "
-                     f"Its held-out renders are in {os.path.join(wd, name, 'eval')}.")
-  dataset = datasets.load(config.data, wd)
-  cfg = config[name]
-  model = models.nerf_from_config(config, name)
-  state = stages.load(wd, name, base.trainer_of(config, name).params_like(config, name, dataset))
-  guide_model, guide_params, radius = None, None, 0.0
-  if cfg.sampler.kind == "depth_guided":
-    guide_model = ray_fields.ray_field_from_config(config.ray, dataset.near, dataset.far)
-    ray_like = base.trainer_of(config, "ray").params_like(config, "ray", dataset)
-    guide_params = stages.load(wd, "ray", ray_like).params["ray"]
-    radius = config.ray.radius or dataset.radius
-  fn = raycast.make_eval_fn(model, cfg.sampler, near=dataset.near, far=dataset.far,
-                            white_background=dataset.white_background,
-                            guide_model=guide_model, radius=radius,
-                            block_rays=config.eval.block_rays)
-  cam_radius, elevation = orbit_for(dataset.test)
-  h, w, f = dataset.test.height, dataset.test.width, dataset.test.focal
-  frames = []
-  for c2w in camera.orbit_path(cam_radius, FLAGS.frames, elevation):
-    o, d = camera.pixel_rays(c2w, h, w, f)
-    out = raycast.render_chunked(lambda oo, dd: fn(state.params["nerf"], guide_params, oo, dd,
-                                                   coarse_params=state.params.get("coarse")),
-                                 o, d,
-                               config.eval.chunk)
-    rgb = (np.clip(out["rgb"], 0, 1) * 255).round().astype(np.uint8)
-    frames.append(np.concatenate(
-        [rgb, evaluate.depth_to_image(out["depth"], dataset.near, dataset.far)], 1))
-  out_path = FLAGS.out or os.path.join(wd, "render", f"{name}_orbit.gif")
-  os.makedirs(os.path.dirname(os.path.abspath(out_path)), exist_ok=True)
-  iio.imwrite(out_path, np.stack(frames), duration=1000.0 / FLAGS.fps, loop=0)
-  iio.imwrite(os.path.splitext(out_path)[0] + "_frame0.png", frames[0])
-  print(f"wrote {out_path} ({len(frames)} frames of {w}x{h}, colour | depth)")
+  with user_errors.reported():
+    w = render_path(FLAGS.workdir, FLAGS.stage, FLAGS.path, FLAGS.frames, FLAGS.fps,
+                    FLAGS.out, FLAGS.data_root)
+  h, wd = w["size"]
+  print(f"wrote {w['color']}, {w['depth']}, {w['acc']} ({w['frames']} frames of {wd}x{h})")
+
+
+def cli():
+  """The halo-render console script."""
+  define_flags()
+  app.run(main)
 
 
 if __name__ == "__main__":
-  app.run(main)
+  cli()

@@ -35,12 +35,15 @@ class Trainer:
   """requires(config, name) -> stage names it reads; params_like(config, name,
   dataset) -> a parameter pytree of its output's shape; train(StageContext)
   -> (StageState, info); check(config, name, dataset_spec) raises ConfigError
-  for combinations it cannot train (run before any work)."""
+  for combinations it cannot train (run before any work); renderer(config,
+  name, dataset, states) -> fn(o, d[, t]) -> {'rgb', 'depth', 'acc', ...} of
+  the finished stage states[name] (None for stages that make no images)."""
   requires: Callable
   params_like: Callable
   train: Callable
   check: Callable
   geometries: frozenset = geometry.ALL
+  renderer: Optional[Callable] = None
 
 
 TRAINERS = registry.Registry[Trainer]("stage trainer")

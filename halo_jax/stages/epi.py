@@ -294,8 +294,7 @@ def train(ctx: base.StageContext):
   def eval_fn(params, step):
     # the joint sampler renders with the window it trains with at this step
     fn = functools.partial(render_eval, params, joint_window(cfg, step))
-    return {"psnr": evaluate.heldout_psnr(fn, dataset.test, config.eval.chunk,
-                                          config.eval.curve_views)}
+    return evaluate.heldout(fn, dataset.test, config.eval.chunk, config.eval.curve_views)
 
   params, step, info = loop.train(name, cfg, ctx.workdir,
                                   init_params(model, ray_model, config.seed), step_loss,
@@ -312,6 +311,16 @@ def params_like(config, name, dataset=None):
   return init_params(model, ray_model, config.seed)
 
 
+def renderer(config, name, dataset, states):
+  """The finished stage states[name] as a render fn of (o, d), as its final
+  evaluation rendered (the joint window at its last step)."""
+  model, ray_model = models_from_config(config, name)
+  cfg, state = config[name], states[name]
+  render_eval = make_eval_fn(model, ray_model, cfg, dataset.near, dataset.far,
+                             config.eval.block_rays)
+  return functools.partial(render_eval, state.params, joint_window(cfg, int(state.step)))
+
+
 base.TRAINERS.register("light_field", base.Trainer(
     requires=requires, params_like=params_like, train=train, check=check,
-    geometries=frozenset({geometry.Geometry.TWO_PLANE})))
+    geometries=frozenset({geometry.Geometry.TWO_PLANE}), renderer=renderer))

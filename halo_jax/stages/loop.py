@@ -14,9 +14,9 @@ from typing import Callable, Optional
 import jax
 import jax.numpy as jnp
 import optax
-import tqdm
 
-from halo_jax import checkpoint, parallel
+from halo_jax import checkpoint, parallel, tensorboard
+from halo_jax.stages import progress
 
 
 class MetricsLog:
@@ -196,11 +196,14 @@ def _start(name, workdir, params, tx, mesh, log):
 class _Run:
   """One stage's loop state: the train state, its clock and its records."""
 
-  def __init__(self, name, cfg, train_state, wall_s, mngr, log, eval_fn, wall_offset):
+  def __init__(self, name, cfg, train_state, wall_s, mngr, log, eval_fn, wall_offset,
+               board=None):
     self.name, self.cfg, self.state, self.wall_s = name, cfg, train_state, wall_s
     self.mngr, self.log, self.eval_fn, self.wall_offset = mngr, log, eval_fn, wall_offset
     self.last_eval_s, self.last_log = wall_s, int(train_state["step"])
     self.last_eval_step = None
+    self.board = board  # TensorBoard writer or None
+    self.lr = schedule(cfg)
 
   def finish_step(self):
     """Waits for the step in flight, counting the wait as training time."""
@@ -211,16 +214,24 @@ class _Run:
   def evaluate(self, step):
     self.last_eval_step, self.last_eval_s = step, self.wall_s
     params = parallel.to_local(self.state["params"])
-    metrics = {k: float(v) for k, v in self.eval_fn(params, step).items()}
-    self.log.write(stage=self.name, step=step, wall_s=self.wall_offset + self.wall_s,
-                   heldout=True, **metrics)
+    metrics = dict(self.eval_fn(params, step))
+    images = metrics.pop("images", {})  # for TensorBoard only
+    metrics = {k: float(v) for k, v in metrics.items()}
+    record = dict(stage=self.name, step=step, wall_s=self.wall_offset + self.wall_s,
+                  heldout=True, **metrics)
+    self.log.write(**record)
+    if parallel.is_primary():
+      tensorboard.write_record(self.board, record, images)
 
   def record(self, step, loss, aux, bar):
     self.finish_step()
     loss = float(loss)
     record = {k: float(v) for k, v in aux.items()}
-    self.log.write(stage=self.name, step=step, wall_s=self.wall_offset + self.wall_s,
-                   loss=loss, skipped=int(self.state["skipped"]), **record)
+    full = dict(stage=self.name, step=step, wall_s=self.wall_offset + self.wall_s, loss=loss,
+                lr=float(self.lr(step - 1)), skipped=int(self.state["skipped"]), **record)
+    self.log.write(**full)
+    if parallel.is_primary():
+      tensorboard.write_record(self.board, full)
     shown = {"loss": f"{loss:.4g}"}
     if "psnr" in record:
       shown["psnr"] = f"{record['psnr']:.2f}"
@@ -314,58 +325,26 @@ def train(name: str, cfg, workdir: str, params, loss_fn: Callable, data, seed: i
   log = log or MetricsLog(workdir)
   tx = optimizer(cfg)
   train_state, wall_s, mngr = _start(name, workdir, params, tx, mesh, log)
-  run = _Run(name, cfg, train_state, wall_s, mngr, log, eval_fn, wall_offset)
-  data = parallel.replicate(data, mesh)
   start = int(train_state["step"])
+  board = tensorboard.open_writer(workdir, name, start) if parallel.is_primary() else None
+  run = _Run(name, cfg, train_state, wall_s, mngr, log, eval_fn, wall_offset, board)
+  data = parallel.replicate(data, mesh)
   base_key = jax.random.PRNGKey(seed)
   # Compiled before the clock starts: a time budget buys training steps, and
   # a method of three stages would otherwise pay three compilations.
   t0 = time.perf_counter()
   step_fn = make_step(loss_fn, tx, cfg.microbatches).lower(run.state, data, base_key).compile()
   compile_s = time.perf_counter() - t0
-  bar = ProgressBar(name, cfg, start, wall_s)
+  bar = progress.ProgressBar(name, cfg, start, wall_s)
   try:
     step = _loop(run, step_fn, data, base_key, bar, start, cfg)
   finally:
     bar.close()  # before any error line, so it starts a line of its own
+    if board is not None:
+      board.close()
   return parallel.to_local(run.state["params"]), step, {"wall_s": run.wall_s,
                                                         "skipped": int(run.state["skipped"]),
                                                         "compile_s": compile_s}
-
-
-class ProgressBar:
-  """tqdm over training seconds when the stage has a time budget (so its ETA
-  is the budget's), else over steps; shows steps and rays/s either way."""
-
-  def __init__(self, name, cfg, start_step, start_wall_s):
-    self.timed = bool(cfg.max_seconds)
-    self.rays = cfg.get("batch_rays", 0)  # 0: no rays/s shown
-    self.start_step, self.start_wall = start_step, start_wall_s
-    if self.timed:
-      self.bar = tqdm.tqdm(total=round(cfg.max_seconds, 1), initial=round(start_wall_s, 1),
-                           desc=name, unit="s", dynamic_ncols=True, mininterval=1.0,
-                           bar_format="{l_bar}{bar}| {n:.0f}/{total:.0f} s "
-                                      "[{elapsed}<{remaining}{postfix}]")
-    else:
-      self.bar = tqdm.tqdm(total=cfg.steps, initial=start_step, desc=name, unit="step",
-                           dynamic_ncols=True, mininterval=1.0)
-    self.shown = {}
-
-  def advance(self, step, seconds, wall_s):
-    if self.timed:
-      self.bar.update(seconds)
-    else:
-      self.bar.update(1)
-    if self.rays and wall_s > self.start_wall:
-      rate = self.rays * (step - self.start_step) / (wall_s - self.start_wall)
-      self.shown.update(step=step, **{"rays/s": f"{rate:.3g}"})
-
-  def set_postfix(self, **shown):
-    self.shown.update(shown)
-    self.bar.set_postfix(**self.shown, refresh=False)
-
-  def close(self):
-    self.bar.close()
 
 
 def _loop(run, step_fn, data, base_key, bar, start, cfg):

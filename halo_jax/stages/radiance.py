@@ -193,8 +193,8 @@ def _eval_closures(ctx, model, guide_model, guide_params, radius, cfg):
     return functools.partial(render_eval, p["nerf"], guide_params, **kw)
 
   def eval_fn(params, step=None):
-    return {"psnr": evaluate.heldout_psnr(make_eval(params, step), ds.test, config.eval.chunk,
-                                          config.eval.curve_views)}
+    return evaluate.heldout(make_eval(params, step), ds.test, config.eval.chunk,
+                           config.eval.curve_views)
   return make_eval, eval_fn
 
 
@@ -236,6 +236,16 @@ def train(ctx: base.StageContext):
   return StageState(params, step, config, name), info
 
 
+def renderer(config, name, dataset, states):
+  """The finished stage states[name] as a render fn of (o, d[, t]), exactly as
+  its final evaluation rendered (same sampler, guide and step-dependent terms)."""
+  ctx = base.StageContext(config, name, dataset, "", states)
+  model = models.nerf_from_config(config, name)
+  guide_model, guide_params, radius = _guide_setup(ctx)
+  make_eval, _ = _eval_closures(ctx, model, guide_model, guide_params, radius, config[name])
+  return make_eval(states[name].params, int(states[name].step))
+
+
 base.TRAINERS.register("radiance", base.Trainer(
     requires=requires, params_like=init_params, train=train, check=check,
-    geometries=geometry.SPATIAL))
+    geometries=geometry.SPATIAL, renderer=renderer))

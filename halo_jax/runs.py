@@ -1,6 +1,7 @@
 """One method's training run on one scene, as a small result record.
 
-Shared by experiments/few_shot.py and experiments/benchmark.py: the record
+Shared by the compare command (halo_jax/compare.py) and
+experiments/benchmark.py: the record
 holds the held-out metrics (mean and per view), the held-out PSNR curve
 against training seconds, each stage's steps and seconds, and provenance.
 """
@@ -8,17 +9,13 @@ import importlib.util
 import json
 import os
 
-from halo_jax import pipeline, provenance
-
-REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+from halo_jax import config_files, pipeline, provenance
 
 
 def load_config(spec: str):
-  """'configs/blender.py:lego_8view_cpu' -> that ConfigDict (path relative to
-  the working directory, else to the repository)."""
-  path, _, variant = spec.partition(":")
-  if not os.path.exists(path):
-    path = os.path.join(REPO, path)
+  """'configs/blender.py:lego_8view_cpu' -> that ConfigDict (the path as
+  given, else the shipped config of that name: config_files.resolve)."""
+  path, _, variant = config_files.resolve(spec).partition(":")
   if not os.path.exists(path):
     raise FileNotFoundError(f"config file {spec.partition(':')[0]!r} not found")
   module_spec = importlib.util.spec_from_file_location(

@@ -38,11 +38,13 @@ def score(rgb, target, with_lpips=False):
   return out
 
 
-def heldout_psnr(eval_fn, views, chunk, num_views):
-  """Mean PSNR over the first `num_views` held-out views (for training curves)."""
+def heldout(eval_fn, views, chunk, num_views):
+  """Mean PSNR over the first `num_views` held-out views (for training curves),
+  and the first view's render: {'psnr': float, 'images': {name: [H, W, 3]}}."""
   idx = np.arange(min(num_views, len(views.names)))
   out = render_views(eval_fn, views, chunk, idx)
-  return float(np.mean(score(out["rgb"], views.images[idx])["psnr"]))
+  return {"psnr": float(np.mean(score(out["rgb"], views.images[idx])["psnr"])),
+          "images": {views.names[0]: np.asarray(out["rgb"][0])}}
 
 
 def flicker(eval_fn, views, chunk, num_frames, out_dir=None):
