@@ -1,4 +1,4 @@
-"""LLFF forward-facing scenes in NDC: the paper's 4-view protocol (SPEC sec. 4, 6).
+"""LLFF forward-facing scenes in NDC: the paper's 4-view protocol.
 
 Variants (the string after the colon):
   fern_4view       train on 005 013 015 016, test on 014, images_8 (504x378),

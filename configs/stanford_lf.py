@@ -1,4 +1,4 @@
-"""Two-plane light fields (Stanford Light Field Archive): SPEC sec. 4.
+"""Two-plane light fields (Stanford Light Field Archive), docs/light_fields.md.
 
 Variants (the string after the colon):
   <scene>       the paper's protocol: train on the grid corners (4,4) (4,12)

@@ -1,4 +1,4 @@
-"""The full set of fields every config has, with the paper's values (SPEC.md sec. 2).
+"""The full set of fields every config has, with the paper's values (and the authors' code's, where the paper gives none).
 
 Config files under `configs/` start from `base_config()` and change a few fields,
 so every run, whatever its file, carries every field and overrides such as
@@ -89,7 +89,7 @@ def _hi_extras(cfg):
   ))
   # sampler.kind='joint': a low-frequency ray field trained with this stage
   # (L_consist) places the samples in tau_ray +- alpha, alpha falling linearly
-  # from 1 to alpha_final over alpha_steps (SPEC sec. 4).
+  # from 1 to alpha_final over alpha_steps (docs/light_fields.md).
   cfg.joint = ml_collections.ConfigDict(dict(consist_weight=1.0, alpha_final=0.5,
                                              alpha_steps=20000))
   # Start from Lo-NeRF's weights: every layer of equal shape (the authors'
@@ -112,7 +112,7 @@ def light_field_stage(cfg):
   # costs (the authors' light-field code).
   cfg.random_background = False
   # Gaussian Fourier features of the EPI point (s', t', theta) and the view
-  # (u, v): SPEC sec. 4's counts. Its stds are the authors', whose features
+  # (u, v): the authors' feature counts. Its stds are the authors', whose features
   # are sin(f x) with s, t in pixels / 1024 (the image spans 1): their st std
   # 64 is our 5.09 (encoding.fourier_std_from_angular(64, 1)); their theta
   # std 8 over their ~1 rad range makes ~0.8 cycles across it, ours over the

@@ -1,4 +1,4 @@
-"""The radiance-field stage for two-plane light fields (SPEC sec. 4).
+"""The radiance-field stage for two-plane light fields (docs/light_fields.md).
 
 The field is an EPINeRF over (s', t', theta); every ray is rendered over the
 angle range [theta_n, theta_f], parameterised by tau in [0, 1].

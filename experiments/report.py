@@ -1,0 +1,251 @@
+"""Turns benchmark result files into docs/results/ pages, plots and the README summary.
+
+  python experiments/report.py [--results=results] [--docs=docs/results]
+
+For every suite and mode under --results (results/<suite>/<mode>/<scene>/
+<method>/seed<k>.json, written by experiments/benchmark.py) it writes
+docs/results/<suite>_<mode>.md: per scene, each method's held-out PSNR /
+SSIM / LPIPS as mean +- standard deviation over seeds, the steps trained,
+the gap to nerf_tuned, and the seconds to reach a PSNR every method reaches;
+then the mean over the scenes where every method has a result; the machines
+and commits the runs came from. Plots: held-out PSNR against training
+seconds, one band (min to max over seeds) and mean line per method, one
+figure per scene. The README's results block (between its
+`<!-- results:begin -->` / `<!-- results:end -->` markers) is regenerated
+from the same files. Nothing here is typed by hand.
+"""
+import collections
+import glob
+import json
+import os
+import re
+import warnings
+
+from absl import app, flags
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # pylint: disable=g-import-not-at-top
+import numpy as np  # pylint: disable=g-import-not-at-top
+
+REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+FLAGS = flags.FLAGS
+flags.DEFINE_string("results", os.path.join(REPO, "results"), "Result files' root.")
+flags.DEFINE_string("docs", os.path.join(REPO, "docs", "results"), "Output folder.")
+flags.DEFINE_string("readme", os.path.join(REPO, "README.md"), "README to update ('' : none).")
+
+METHOD_ORDER = ("nerf_paper", "nerf_tuned", "freenerf", "halo", "halo+freenerf")
+BASELINE = "nerf_tuned"
+
+
+def load(results_root):
+  """{(suite, mode): {scene: {method: [record, ...]}}} from the result files."""
+  out = collections.defaultdict(lambda: collections.defaultdict(dict))
+  for path in sorted(glob.glob(os.path.join(results_root, "*", "*", "*", "*", "seed*.json"))):
+    suite, mode, scene, method = path.split(os.sep)[-5:-1]
+    with open(path) as f:
+      out[(suite, mode)][scene].setdefault(method, []).append(json.load(f))
+  return out
+
+
+def _methods(by_method):
+  return sorted(by_method, key=lambda m: (METHOD_ORDER.index(m) if m in METHOD_ORDER else 99, m))
+
+
+def stat(values):
+  """'mean +- std' (std over seeds; no +- for one seed)."""
+  v = np.asarray([x for x in values if x is not None], np.float64)
+  if v.size == 0:
+    return "-", None
+  return mean_pm(v), float(v.mean())
+
+
+def mean_pm(v, digits=2):
+  if v.size == 1:
+    return f"{v[0]:.{digits}f}"
+  return f"{v.mean():.{digits}f} ± {v.std(ddof=1):.{digits}f}"
+
+
+def curve_on_grid(records, grid):
+  """Each record's held-out curve, held constant between points, on `grid`
+  seconds: [seeds, len(grid)] (NaN before a run's first point)."""
+  rows = []
+  for r in records:
+    if not r["curve"]:
+      continue
+    t, p = np.asarray(r["curve"]).T
+    idx = np.searchsorted(t, grid, side="right") - 1
+    rows.append(np.where(idx >= 0, p[np.clip(idx, 0, None)], np.nan))
+  return np.asarray(rows)
+
+
+def seconds_to_reach(records, level):
+  """Mean over seeds of the first curve time at which held-out PSNR >= level
+  (None if some seed never reaches it)."""
+  times = []
+  for r in records:
+    hit = [t for t, p in r["curve"] if p >= level]
+    if not hit:
+      return None
+    times.append(hit[0])
+  return float(np.mean(times))
+
+
+def common_level(by_method):
+  """The highest held-out curve PSNR every run of every method reaches, less 0.5 dB."""
+  peaks = [max(p for _, p in r["curve"]) for rs in by_method.values() for r in rs if r["curve"]]
+  return None if not peaks else min(peaks) - 0.5
+
+
+def scene_table(by_method):
+  base = [r["psnr"] for r in by_method.get(BASELINE, [])]
+  level = common_level(by_method)
+  head = ("| method | seeds | PSNR | SSIM | LPIPS | Δ PSNR vs nerf_tuned | steps (last stage) | "
+          f"s to {level:.1f} dB |" if level else "| method | seeds | PSNR | SSIM | LPIPS | "
+          "Δ PSNR vs nerf_tuned | steps (last stage) | s to common PSNR |")
+  lines = [head, "|---|---|---|---|---|---|---|---|"]
+  for m in _methods(by_method):
+    rs = by_method[m]
+    psnr, _ = stat([r["psnr"] for r in rs])
+    ssim = mean_pm(np.asarray([r["ssim"] for r in rs]), 3)
+    lp = [r["lpips"] for r in rs if r.get("lpips") is not None]
+    lpips = mean_pm(np.asarray(lp), 3) if lp else "-"
+    delta = "-"
+    if base and m != BASELINE:
+      delta = f"{np.mean([r['psnr'] for r in rs]) - np.mean(base):+.2f}"
+    last = [list(r["stages"].values())[-1]["step"] for r in rs]
+    reach = seconds_to_reach(rs, level) if level else None
+    lines.append(f"| {m} | {len(rs)} | {psnr} | {ssim} | {lpips} | {delta} | "
+                 f"{int(np.mean(last))} | {'-' if reach is None else f'{reach:.0f}'} |")
+  return "\n".join(lines)
+
+
+def plot_scene(by_method, title, path):
+  fig, ax = plt.subplots(figsize=(6, 4))
+  end = max(t for rs in by_method.values() for r in rs for t, _ in r["curve"] or [(1, 0)])
+  grid = np.linspace(0, end, 200)
+  for i, m in enumerate(_methods(by_method)):
+    ys = curve_on_grid(by_method[m], grid)
+    if ys.size == 0:
+      continue
+    with warnings.catch_warnings():  # grid points before any seed's first point are NaN
+      warnings.simplefilter("ignore", RuntimeWarning)
+      lo, hi, mean = np.nanmin(ys, 0), np.nanmax(ys, 0), np.nanmean(ys, 0)
+    ax.fill_between(grid, lo, hi, color=f"C{i}", alpha=0.2, lw=0)
+    ax.plot(grid, mean, color=f"C{i}", label=f"{m} ({len(by_method[m])})")
+  ax.set_xlabel("training seconds")
+  ax.set_ylabel("held-out PSNR (dB), curve views")
+  ax.set_title(title, fontsize=10)
+  ax.grid(alpha=0.3)
+  ax.legend(fontsize=8)
+  fig.tight_layout()
+  fig.savefig(path, dpi=110)
+  plt.close(fig)
+
+
+def complete_scenes(scenes):
+  """Scenes where every method run anywhere in the suite has at least one result."""
+  all_methods = {m for by in scenes.values() for m in by}
+  return [s for s, by in scenes.items() if all_methods <= set(by)]
+
+
+def over_scenes_table(scenes):
+  """Per method: the mean over scenes of its mean PSNR, over the scenes where
+  it and nerf_tuned both ran, and on how many of them it beats nerf_tuned."""
+  methods = _methods({m: 1 for by in scenes.values() for m in by})
+  lines = ["| method | scenes | mean PSNR | mean Δ vs nerf_tuned | scenes ahead of nerf_tuned |",
+           "|---|---|---|---|---|"]
+  for m in methods:
+    both = [s for s, by in scenes.items() if m in by and BASELINE in by]
+    if not both:
+      continue
+    ps = [np.mean([r["psnr"] for r in scenes[s][m]]) for s in both]
+    ds = [p - np.mean([r["psnr"] for r in scenes[s][BASELINE]]) for p, s in zip(ps, both)]
+    ahead = sum(d > 0 for d in ds)
+    lines.append(f"| {m} | {len(both)} | {np.mean(ps):.2f} | "
+                 f"{'-' if m == BASELINE else f'{np.mean(ds):+.2f}'} | "
+                 f"{'-' if m == BASELINE else f'{ahead} of {len(both)}'} |")
+  return "\n".join(lines)
+
+
+def provenance_lines(scenes):
+  recs = [r for by in scenes.values() for rs in by.values() for r in rs]
+  prov = [r.get("provenance", {}) for r in recs]
+  commits = sorted({(p.get("git") or {}).get("commit", "?")[:7] for p in prov})
+  dirty = sum(bool((p.get("git") or {}).get("dirty")) for p in prov)
+  devices = sorted({f"{p.get('device', {}).get('kind')} x{p.get('device', {}).get('count')}, "
+                    f"{p.get('cpu', {}).get('model')}, {p.get('cpu', {}).get('cores_used')} "
+                    "core(s)" for p in prov})
+  peaks = [p.get("matmul_peak_gflops") for p in prov if p.get("matmul_peak_gflops")]
+  versions = sorted({f"jax {p.get('versions', {}).get('jax')}, flax "
+                     f"{p.get('versions', {}).get('flax')}" for p in prov})
+  budgets = sorted({r.get("budget_s") for r in recs})
+  return [f"- runs: {len(recs)}; training budget per run: {budgets} s",
+          f"- machines: {'; '.join(devices)}",
+          f"- measured matmul peak: {min(peaks):.0f}-{max(peaks):.0f} GFLOP/s" if peaks else "",
+          f"- software: {'; '.join(versions)}",
+          f"- commits: {', '.join(commits)} ({dirty} runs from a modified tree)"]
+
+
+def write_suite(suite, mode, scenes, docs):
+  name = f"{suite}_{mode}"
+  out = [f"# Suite `{suite}`, mode `{mode}`", "",
+         "Generated by `python experiments/report.py` from "
+         f"`results/{suite}/{mode}/`; do not edit by hand. Runs: "
+         f"`python experiments/benchmark.py --suite={suite} --mode={mode}`. "
+         "PSNR / SSIM / LPIPS (VGG) are the mean ± standard deviation over seeds on each "
+         "scene's held-out views; Δ is the difference of means to `nerf_tuned`. The curve "
+         "columns and plots use the first few held-out views (`eval.curve_views`), "
+         "evaluated during training.", ""]
+  out += [l for l in provenance_lines(scenes) if l] + [""]
+  out += ["## Over scenes", "", over_scenes_table(scenes), ""]
+  for scene in sorted(scenes):
+    by = scenes[scene]
+    cfg = next(iter(by.values()))[0]["config"]
+    png = f"{name}_{scene}.png"
+    plot_scene(by, f"{scene} ({cfg}), {mode}", os.path.join(docs, png))
+    n_views = next(iter(by.values()))[0]["num_views"]
+    out += [f"## {scene}", "", f"`{cfg}`, {n_views} held-out views.", "", scene_table(by), "",
+            f"![held-out PSNR against training seconds]({png})", ""]
+  with open(os.path.join(docs, f"{name}.md"), "w") as f:
+    f.write("\n".join(out))
+  return name
+
+
+def readme_block(all_suites):
+  lines = ["| suite | scene | " + " | ".join(METHOD_ORDER) + " |",
+           "|---|---|" + "---|" * len(METHOD_ORDER)]
+  for (suite, mode), scenes in sorted(all_suites.items()):
+    if suite == "smoke":
+      continue
+    for scene in sorted(scenes):
+      by = scenes[scene]
+      cells = [stat([r["psnr"] for r in by[m]])[0] if m in by else "" for m in METHOD_ORDER]
+      lines.append(f"| [{suite}/{mode}](docs/results/{suite}_{mode}.md) | {scene} | "
+                   + " | ".join(cells) + " |")
+  return "\n".join(lines)
+
+
+def update_readme(path, block):
+  with open(path) as f:
+    text = f.read()
+  pattern = re.compile(r"(<!-- results:begin -->\n).*?(\n<!-- results:end -->)", re.S)
+  if not pattern.search(text):
+    return False
+  with open(path, "w") as f:
+    f.write(pattern.sub(lambda m: m.group(1) + block + m.group(2), text))
+  return True
+
+
+def main(argv):
+  del argv
+  os.makedirs(FLAGS.docs, exist_ok=True)
+  suites = load(FLAGS.results)
+  for (suite, mode), scenes in sorted(suites.items()):
+    print("wrote", os.path.join(FLAGS.docs, write_suite(suite, mode, scenes, FLAGS.docs) + ".md"))
+  if FLAGS.readme and update_readme(FLAGS.readme, readme_block(suites)):
+    print("updated", FLAGS.readme)
+
+
+if __name__ == "__main__":
+  app.run(main)
