@@ -28,6 +28,8 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # pylint: disable=g-import-not-at-top
 import numpy as np  # pylint: disable=g-import-not-at-top
 
+from halo_jax import runs  # pylint: disable=g-import-not-at-top
+
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 FLAGS = flags.FLAGS
 flags.DEFINE_string("results", os.path.join(REPO, "results"), "Result files' root.")
@@ -80,21 +82,12 @@ def curve_on_grid(records, grid):
 
 
 def seconds_to_reach(records, level):
-  """Mean over seeds of the first curve time at which held-out PSNR >= level
-  (None if some seed never reaches it)."""
-  times = []
-  for r in records:
-    hit = [t for t, p in r["curve"] if p >= level]
-    if not hit:
-      return None
-    times.append(hit[0])
-  return float(np.mean(times))
+  return runs.seconds_to_reach(records, level)
 
 
 def common_level(by_method):
   """The highest held-out curve PSNR every run of every method reaches, less 0.5 dB."""
-  peaks = [max(p for _, p in r["curve"]) for rs in by_method.values() for r in rs if r["curve"]]
-  return None if not peaks else min(peaks) - 0.5
+  return runs.common_level([r for rs in by_method.values() for r in rs])
 
 
 def scene_table(by_method):

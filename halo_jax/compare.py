@@ -54,17 +54,25 @@ def method_configs(config, names, all_views):
 
 def write_report(results, workdir, n_test):
   dynamic = any("flicker" in r for r in results.values())
+  level = runs.common_level(list(results.values()))
+  reach = f" s to {level:.1f} dB |" if level is not None else ""
   lines = ["| method | held-out PSNR | SSIM | LPIPS (VGG) |" + (" flicker |" if dynamic else "")
-           + " training s |", "|---|---|---|---|" + ("---|" if dynamic else "") + "---|"]
+           + " training s |" + reach,
+           "|---|---|---|---|" + ("---|" if dynamic else "") + "---|" + ("---|" if reach else "")]
   def cell(value, fmt):  # '-' where a run has no such metric
     return "-" if value is None or value != value else format(value, fmt)
 
   for name, r in results.items():
     flicker = f" {cell(r.get('flicker'), '.2f')} |" if dynamic else ""
+    when = f" {cell(runs.seconds_to_reach([r], level), '.0f')} |" if reach else ""
     lines.append(f"| {name} | {r['psnr']:.2f} | {r['ssim']:.3f} | {cell(r.get('lpips'), '.3f')} "
-                 f"|{flicker} {r['wall_s']:.0f} |")
+                 f"|{flicker} {r['wall_s']:.0f} |{when}")
   note = (" Flicker: mean |I(t+1) - 2 I(t) + I(t-1)| in 8-bit levels over a video at the "
           "first held-out camera (halo_jax.metrics.temporal_flicker)." if dynamic else "")
+  if reach:
+    note += (f" 's to {level:.1f} dB': training seconds until the held-out curve (the first "
+             f"eval.curve_views views) first reached {level:.1f} dB, 0.5 dB under the lowest "
+             "curve peak of all methods.")
   table = "\n".join(lines) + f"\n\n({n_test} held-out views.{note})\n"
   with open(os.path.join(workdir, "results.md"), "w") as f:
     f.write(table)

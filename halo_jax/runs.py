@@ -66,3 +66,22 @@ def run_method(config, workdir, dataset=None) -> dict:
                      for n, i in infos.items()},
           "curve": read_curve(workdir),
           "provenance": provenance.collect()}
+
+
+def seconds_to_reach(records, level):
+  """Mean over `records` (seeds) of the first curve time at which held-out
+  PSNR >= level; None if some record never reaches it."""
+  times = []
+  for r in records:
+    hit = [t for t, p in r["curve"] if p >= level]
+    if not hit:
+      return None
+    times.append(hit[0])
+  return sum(times) / len(times)
+
+
+def common_level(records, margin_db=0.5):
+  """A held-out PSNR every record's curve reaches: the lowest curve peak less
+  margin_db (None without curves)."""
+  peaks = [max(p for _, p in r["curve"]) for r in records if r["curve"]]
+  return min(peaks) - margin_db if peaks else None

@@ -44,8 +44,8 @@ def test_all_stages_then_hi_alone_reuses_earlier_states(config, scene_root, tmp_
   res = subprocess.run([sys.executable, "-m", "halo_jax.render", f"--workdir={wd}", "--frames=2"],
                        cwd=REPO, capture_output=True, text=True, timeout=300)
   assert res.returncode == 0, res.stderr[-3000:]
-  frame = iio.imread(os.path.join(wd, "render", "hi_orbit_frame0.png"))
-  assert frame.shape == (32, 64, 3)
+  frame = iio.imread(os.path.join(wd, "render", "hi_orbit_color_frame0.png"))
+  assert frame.shape == (32, 32, 3)
   # A second launch of hi alone reads lo and ray from the workdir and trains
   # more steps from hi's checkpoint.
   config.stages = "hi"
