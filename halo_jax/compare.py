@@ -1,11 +1,10 @@
-"""NeRF vs HALO on the same views with the same training wall-clock budget.
+"""Every method on the same views with the same training wall-clock budget.
 
   halo-compare --config=configs/blender.py:lego_8view_cpu --workdir=DIR
   (or python experiments/few_shot.py with the same flags)
 
-Trains each of --methods (default: nerf_tuned, the Hi stage alone with
-stratified samples and no regulariser, and HALO: lo -> ray -> hi; any name in
-halo_jax.methods.METHODS, e.g. nerf_paper, freenerf, halo+freenerf) for
+Trains each of --methods (default: all five of halo_jax.methods: nerf_paper,
+nerf_tuned, freenerf, halo, halo+freenerf; docs/baselines.md) for
 `config.budget_s` seconds of training (held-out evaluations for the curves
 are not counted), evaluates all on the same held-out views and writes
 DIR/results.json, DIR/results.md and DIR/psnr_vs_time.png. With
@@ -31,8 +30,8 @@ config_flags.DEFINE_config_file("config", None, "HALO config (path[:variant]).",
                                 lock_config=True)
 flags.DEFINE_string("workdir", None, "Output folder.")
 flags.DEFINE_bool("all_views_reference", False, "Also train NeRF on all training views.")
-flags.DEFINE_integer("curve_points", 8, "Held-out evaluations per method for the curve.")
-flags.DEFINE_list("methods", ["nerf_tuned", "halo"],
+flags.DEFINE_integer("curve_points", 6, "Held-out evaluations per method for the curve.")
+flags.DEFINE_list("methods", ["nerf_paper", "nerf_tuned", "freenerf", "halo", "halo+freenerf"],
                   "Methods to train (names in halo_jax.methods.METHODS); results of others "
                   "already in DIR/results.json are kept.")
 flags.mark_flags_as_required(["config", "workdir"])

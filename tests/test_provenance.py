@@ -1,0 +1,35 @@
+"""Provenance: what every info.json and result record says about where it came from."""
+import subprocess
+import sys
+
+import jax
+
+from halo_jax import provenance
+
+
+def test_fields_and_values_checked_against_independent_sources():
+  p = provenance.collect()
+  assert p["versions"]["jax"] == jax.__version__
+  assert p["versions"]["python"] == "%d.%d.%d" % sys.version_info[:3]
+  assert p["device"]["kind"] == jax.devices()[0].device_kind
+  assert p["device"]["count"] == len(jax.devices())
+  assert 1 <= p["cpu"]["cores_used"] <= p["cpu"]["cores_total"]
+  assert p["cpu"]["model"]
+  assert p["matmul_peak_gflops"] > 0
+  assert "pytest" in p["command"] or "py.test" in p["command"]
+  repo = provenance._REPO  # pylint: disable=protected-access
+  head = subprocess.run(["git", "-C", repo, "rev-parse", "HEAD"], capture_output=True,
+                        text=True)
+  if head.returncode == 0:
+    assert p["git"]["commit"] == head.stdout.strip()
+    dirty = subprocess.run(["git", "-C", repo, "diff", "--quiet", "HEAD"]).returncode != 0
+    assert p["git"]["dirty"] == dirty
+
+
+def test_git_state_outside_a_checkout(tmp_path):
+  assert provenance.git_state(str(tmp_path)) == {"commit": None, "dirty": None}
+
+
+def test_peak_is_measured_once_per_process():
+  a = provenance.matmul_peak_gflops()
+  assert provenance.matmul_peak_gflops() == a
