@@ -30,7 +30,7 @@ config_flags.DEFINE_config_file("config", None, "HALO config (path[:variant]).",
                                 lock_config=True)
 flags.DEFINE_string("workdir", None, "Output folder.")
 flags.DEFINE_bool("all_views_reference", False, "Also train NeRF on all training views.")
-flags.DEFINE_integer("curve_points", 6, "Held-out evaluations per method for the curve.")
+flags.DEFINE_integer("curve_points", 4, "Held-out evaluations per method for the curve.")
 flags.DEFINE_list("methods", ["nerf_paper", "nerf_tuned", "freenerf", "halo", "halo+freenerf"],
                   "Methods to train (names in halo_jax.methods.METHODS); results of others "
                   "already in DIR/results.json are kept.")
@@ -46,6 +46,8 @@ def method_configs(config, names, all_views):
     ref.data.train_views = "all"
     out["nerf_tuned_all_views"] = ref
   for c in out.values():
+    if c.data.kind == "procedural" and not c.data.root:  # generated once, shared
+      c.data.root = os.path.join(FLAGS.workdir, f"scene_{c.data.procedural_scene}")
     for name in pipeline.stage_names(c):
       c[name].eval_every_s = c.budget_s / max(FLAGS.curve_points, 1) if c.budget_s else 0.0
   return out
