@@ -32,9 +32,13 @@ from halo_jax import runs  # pylint: disable=g-import-not-at-top
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 FLAGS = flags.FLAGS
-flags.DEFINE_string("results", os.path.join(REPO, "results"), "Result files' root.")
-flags.DEFINE_string("docs", os.path.join(REPO, "docs", "results"), "Output folder.")
-flags.DEFINE_string("readme", os.path.join(REPO, "README.md"), "README to update ('' : none).")
+
+
+def define_flags():
+  """Defined on launch, not on import (the tests import this module beside benchmark.py)."""
+  flags.DEFINE_string("results", os.path.join(REPO, "results"), "Result files' root.")
+  flags.DEFINE_string("docs", os.path.join(REPO, "docs", "results"), "Output folder.")
+  flags.DEFINE_string("readme", os.path.join(REPO, "README.md"), "README to update ('': none).")
 
 METHOD_ORDER = ("nerf_paper", "nerf_tuned", "freenerf", "halo", "halo+freenerf")
 BASELINE = "nerf_tuned"
@@ -241,4 +245,5 @@ def main(argv):
 
 
 if __name__ == "__main__":
+  define_flags()
   app.run(main)
