@@ -21,8 +21,8 @@ class ProgressBar:
     self.shown = {}
 
   def advance(self, step, seconds, wall_s):
-    if self.timed:
-      self.bar.update(seconds)
+    if self.timed:  # the last step ends past the budget: the bar stops at its total
+      self.bar.update(max(0.0, min(seconds, self.bar.total - self.bar.n)))
     else:
       self.bar.update(1)
     if self.rays and wall_s > self.start_wall:
