@@ -6,7 +6,9 @@ For every suite and mode under --results (results/<suite>/<mode>/<scene>/
 <method>/seed<k>.json, written by experiments/benchmark.py) it writes
 docs/results/<suite>_<mode>.md: per scene, each method's held-out PSNR /
 SSIM / LPIPS as mean +- standard deviation over seeds, the steps trained,
-the gap to nerf_tuned, and the seconds to reach a PSNR every method reaches;
+the gap to nerf_tuned, and the seconds to reach a common PSNR (the median of
+the runs' curve peaks less 0.5 dB; '-' for a method some seed of which never
+reaches it);
 then the mean over the scenes where every method has a result; the machines
 and commits the runs came from. Plots: held-out PSNR against training
 seconds, one band (min to max over seeds) and mean line per method, one
@@ -90,8 +92,8 @@ def seconds_to_reach(records, level):
 
 
 def common_level(by_method):
-  """The highest held-out curve PSNR every run of every method reaches, less 0.5 dB."""
-  return runs.common_level([r for rs in by_method.values() for r in rs])
+  """The median over runs of their held-out curve peaks, less 0.5 dB."""
+  return runs.common_level([r for rs in by_method.values() for r in rs], of="median")
 
 
 def scene_table(by_method):
@@ -226,11 +228,11 @@ def readme_block(all_suites):
 def update_readme(path, block):
   with open(path) as f:
     text = f.read()
-  pattern = re.compile(r"(<!-- results:begin -->\n).*?(\n<!-- results:end -->)", re.S)
+  pattern = re.compile(r"(<!-- results:begin -->)\n.*?(<!-- results:end -->)", re.S)
   if not pattern.search(text):
     return False
   with open(path, "w") as f:
-    f.write(pattern.sub(lambda m: m.group(1) + block + m.group(2), text))
+    f.write(pattern.sub(lambda m: m.group(1) + "\n" + block + "\n" + m.group(2), text))
   return True
 
 
