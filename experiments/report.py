@@ -75,15 +75,14 @@ def mean_pm(v, digits=2):
 
 
 def curve_on_grid(records, grid):
-  """Each record's held-out curve, held constant between points, on `grid`
-  seconds: [seeds, len(grid)] (NaN before a run's first point)."""
+  """Each record's held-out curve, linearly interpolated between its points, on
+  `grid` seconds: [seeds, len(grid)] (NaN outside a run's first and last point)."""
   rows = []
   for r in records:
     if not r["curve"]:
       continue
-    t, p = np.asarray(r["curve"]).T
-    idx = np.searchsorted(t, grid, side="right") - 1
-    rows.append(np.where(idx >= 0, p[np.clip(idx, 0, None)], np.nan))
+    t, p = np.asarray(r["curve"], np.float64).T
+    rows.append(np.interp(grid, t, p, left=np.nan, right=np.nan))
   return np.asarray(rows)
 
 
@@ -132,6 +131,9 @@ def plot_scene(by_method, title, path):
       lo, hi, mean = np.nanmin(ys, 0), np.nanmax(ys, 0), np.nanmean(ys, 0)
     ax.fill_between(grid, lo, hi, color=f"C{i}", alpha=0.2, lw=0)
     ax.plot(grid, mean, color=f"C{i}", label=f"{m} ({len(by_method[m])})")
+    for r in by_method[m]:  # the measured points
+      if r["curve"]:
+        ax.plot(*np.asarray(r["curve"]).T, ".", color=f"C{i}", ms=4)
   ax.set_xlabel("training seconds")
   ax.set_ylabel("held-out PSNR (dB), curve views")
   ax.set_title(title, fontsize=10)

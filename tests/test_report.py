@@ -43,9 +43,9 @@ def test_tables_and_readme_block(tmp_path):
   assert "| 100 | - |" in table and "| 100 | 5 |" in table
   assert report.seconds_to_reach(by["halo"], 20.5) == 5.0
   assert report.seconds_to_reach(by["halo"], 17.0) == 1.0
-  grid = np.array([0.0, 1.0, 3.0, 6.0])
+  grid = np.array([0.0, 1.0, 3.0, 5.0, 6.0])
   np.testing.assert_array_equal(report.curve_on_grid(by["halo"], grid),
-                                [[np.nan, 18.0, 18.0, 22.0]])
+                                [[np.nan, 18.0, 20.0, 22.0, np.nan]])
   name = report.write_suite("cpu", "time", suites[("cpu", "time")], docs)
   assert os.path.exists(os.path.join(docs, f"{name}_s1.png"))
   readme = tmp_path / "README.md"
