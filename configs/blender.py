@@ -12,9 +12,8 @@ Hi model, stratified samples, no regulariser), `_nerf_paper`, `_freenerf`,
 `_halo+freenerf`; without one, HALO.
 
 The scene folder defaults to $HALO_DATA/nerf_synthetic/<scene> with HALO_DATA
-defaulting to ../shared/data; override with --config.data.root=PATH.
+defaulting to ./data; override with --config.data.root=PATH.
 """
-import os
 
 from halo_jax import defaults, methods
 
@@ -39,8 +38,7 @@ def get_config(arg: str = "lego_8view"):
   scene, setting = parts[0], "_".join(parts[1:])
   c = defaults.base_config()
   c.data.kind = "blender"
-  c.data.root = os.path.join(os.environ.get("HALO_DATA", "../shared/data"),
-                             "nerf_synthetic", scene)
+  c.data.root = defaults.data_root("nerf_synthetic", scene)
   if setting == "8view":
     if scene not in EIGHT_VIEWS:
       raise ValueError(f"no 8-view list for scene {scene!r}; known: {sorted(EIGHT_VIEWS)}")

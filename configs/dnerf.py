@@ -18,9 +18,8 @@ high frequencies, trained from scratch and regularised by L_empty on random
 rays at random times.
 
 Scene folders default to $HALO_DATA/dnerf/<scene> (HALO_DATA defaults to
-../shared/data); override with --config.data.root=PATH.
+./data); override with --config.data.root=PATH.
 """
-import os
 
 from halo_jax import defaults, methods
 
@@ -51,8 +50,7 @@ def _dynamic(c):
 
 
 def _data_root(scene):
-  base = os.path.join(os.environ.get("HALO_DATA", "../shared/data"), "dnerf")
-  return os.path.join(base, "tiny_dnerf_data.npz" if scene == "tiny" else scene)
+  return defaults.data_root("dnerf", "tiny_dnerf_data.npz" if scene == "tiny" else scene)
 
 
 def get_config(arg: str = "lego"):

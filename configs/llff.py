@@ -21,7 +21,6 @@ near plane).
 
 The scene folder defaults to $HALO_DATA/nerf_llff_data/<scene>.
 """
-import os
 
 from halo_jax import defaults, methods
 
@@ -46,8 +45,7 @@ def get_config(arg: str = "fern_4view"):
   train, test = FOUR_VIEWS[scene]
   c.data.update(kind="llff", factor=8, train_views=train, test_views=test,
                 white_background=False, near=0.0, far=1.0,
-                root=os.path.join(os.environ.get("HALO_DATA", "../shared/data"),
-                                  "nerf_llff_data", scene))
+                root=defaults.data_root("nerf_llff_data", scene))
   if cpu:
     defaults.cpu_sized(c, CPU_BUDGET_S)
     c.eval.chunk = 8192

@@ -16,7 +16,6 @@ colour, so each must end in something opaque) and no random rays.
 
 The scene folder defaults to $HALO_DATA/stanford_lf/<scene>.
 """
-import os
 
 from halo_jax import defaults, methods
 
@@ -33,8 +32,7 @@ def get_config(arg: str = "knights"):
   c = defaults.base_config()
   c.data.update(kind="stanford_lf", factor=1, train_views=TRAIN, test_views=TEST,
                 white_background=False,
-                root=os.path.join(os.environ.get("HALO_DATA", "../shared/data"), "stanford_lf",
-                                  parts[0]))
+                root=defaults.data_root("stanford_lf", parts[0]))
   c.stages = "hi"
   hi = c.hi
   defaults.light_field_stage(hi)

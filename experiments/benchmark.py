@@ -28,7 +28,7 @@ REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 if __package__ in (None, ""):  # run as a script: the repository root holds `experiments`
   sys.path.insert(0, REPO)
 from experiments import suites  # pylint: disable=g-import-not-at-top
-from halo_jax import runs  # pylint: disable=g-import-not-at-top
+from halo_jax import defaults, runs  # pylint: disable=g-import-not-at-top
 
 FLAGS = flags.FLAGS
 flags.DEFINE_enum("suite", "cpu", sorted(suites.SUITES), "Suite to run.")
@@ -41,7 +41,7 @@ flags.DEFINE_bool("dry_run", False, "Print the plan and each run's state; train 
 
 
 def data_root() -> str:
-  return os.environ.get("HALO_DATA", os.path.join(REPO, "..", "shared", "data"))
+  return defaults.data_root()
 
 
 def plan(suite: suites.Suite, only: str = ""):

@@ -4,6 +4,8 @@ Config files under `configs/` start from `base_config()` and change a few fields
 so every run, whatever its file, carries every field and overrides such as
 `--config.lo.encoding.L=6` always find their target.
 """
+import os
+
 import ml_collections
 
 
@@ -148,11 +150,17 @@ def light_field_stage(cfg):
   return cfg
 
 
+def data_root(*parts) -> str:
+  """A path under the datasets folder: $HALO_DATA, else ./data (the layout each
+  loader expects is in README.md)."""
+  return os.path.join(os.environ.get("HALO_DATA", "data"), *parts)
+
+
 def _data():
   """The scene and its views (data.kind: a datasets.LOADERS entry)."""
   return ml_collections.ConfigDict(dict(
       kind="blender",          # 'blender' | 'procedural' | 'dnerf' | 'stanford_lf' | 'llff'
-      root="",                 # scene folder, e.g. ../shared/data/nerf_synthetic/lego
+      root="",                 # scene folder, e.g. data/nerf_synthetic/lego
       factor=2,                # integer downscale (2: 400x400, 8: 100x100)
       train_views="all",       # 'all', 'every:K', a list of names, or 'r_2,r_16,...'
       test_views="all",

@@ -109,7 +109,7 @@ def test_missing_image_names_the_file(scene_root, tmp_path):
     blender.load_views(root, "train", 1, ["r_3"])
 
 
-@pytest.mark.skipif(not os.path.isdir(LEGO), reason="../shared/data lego not present")
+@pytest.mark.skipif(not os.path.isdir(LEGO), reason="lego not in the datasets folder")
 def test_lego_eight_views_factor_8():
   from configs import blender as blender_configs
   c = blender_configs.get_config("lego_8view_cpu")
