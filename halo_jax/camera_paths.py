@@ -107,10 +107,12 @@ def _read_file(path, geometry):
   return c2w.astype(np.float32), times
 
 
-def views_for(path: str, dataset, n: int, bounds=None):
-  """The Views of path `path` (a kind from `kinds` or a file) for `dataset`."""
+def views_for(path: str, dataset, n: int, bounds=None, downscale: int = 1):
+  """The Views of path `path` (a kind from `kinds` or a file) for `dataset`, at
+  the test views' size divided by `downscale` (the field of view kept)."""
   geo, test = dataset.geometry, dataset.test
-  h, w = test.height, test.width
+  h, w = test.height // downscale, test.width // downscale
+  focal = getattr(test, "focal", 0.0) * w / test.width
   ramp = np.linspace(0.0, 1.0, n, dtype=np.float32)
   if path not in kinds(geo, dataset.dynamic) and not path.endswith((".npy", ".json")):
     raise DataError(f"--path={path!r}: this scene ({geo.value} rays"
@@ -133,5 +135,5 @@ def views_for(path: str, dataset, n: int, bounds=None):
   if dataset.dynamic and times is None:  # a static path through a dynamic scene: t = 0
     times = np.zeros(len(c2w), np.float32)
   cls = NDCViews if geo == Geometry.NDC else Views
-  return cls(_blank(len(c2w), h, w), np.asarray(c2w, np.float32), test.focal,
+  return cls(_blank(len(c2w), h, w), np.asarray(c2w, np.float32), focal,
              _names(len(c2w)), None if times is None else np.asarray(times, np.float32))

@@ -31,6 +31,10 @@ def test_orbit_first_and_last_poses():
   np.testing.assert_allclose(views.c2w[-1], camera.spherical_camera(4.0, 330.0, 30.0), atol=1e-5)
   o, d = views.rays()
   assert o.shape == (12, 8, 10, 3)
+  half = camera_paths.views_for("orbit", _sphere_dataset(), 12, downscale=2)
+  assert half.images.shape == (12, 4, 5, 3) and half.focal == 6.0
+  # the same field of view: a corner pixel's ray direction barely moves
+  np.testing.assert_allclose(half.rays()[1][0, 0, 0], d[0, 0, 0], atol=0.1)
 
 
 def test_dynamic_paths_run_time_from_0_to_1():

@@ -30,6 +30,7 @@ def define_flags():
   flags.DEFINE_string("path", None, "A path kind (orbit, orbit_time, time, spiral, uv) or a "
                       ".npy / .json file of cameras (default: the scene kind's first).")
   flags.DEFINE_integer("frames", 60, "Frames along a generated path.")
+  flags.DEFINE_integer("downscale", 1, "Render at the test views' size divided by this.")
   flags.DEFINE_float("fps", 20.0, "Frames per second.")
   flags.DEFINE_string("out", None, "Output folder (default DIR/render).")
   flags.DEFINE_string("data_root", "", "Scene folder, if not where the run found it.")
@@ -37,13 +38,13 @@ def define_flags():
 
 
 def render_path(workdir, stage=None, path=None, frames=60, fps=20.0, out=None,
-                data_root=""):
+                data_root="", downscale=1):
   """Renders and writes the videos; returns {'color', 'depth', 'acc': file, 'frames': n}."""
   run = restore.load(workdir, stage, data_root)
   ds = run.dataset
   path = path or camera_paths.kinds(ds.geometry, ds.dynamic)[0]
   bounds = llff.read_poses(run.config.data.root)[3] if ds.geometry == Geometry.NDC else None
-  views = camera_paths.views_for(path, ds, frames, bounds)
+  views = camera_paths.views_for(path, ds, frames, bounds, downscale)
   r = evaluate.render_views(run.render, views, run.config.eval.chunk)
   out = out or os.path.join(workdir, "render")
   label = os.path.splitext(os.path.basename(path))[0]
@@ -65,7 +66,7 @@ def main(argv):
   logging.set_verbosity(logging.WARNING)
   with user_errors.reported():
     w = render_path(FLAGS.workdir, FLAGS.stage, FLAGS.path, FLAGS.frames, FLAGS.fps,
-                    FLAGS.out, FLAGS.data_root)
+                    FLAGS.out, FLAGS.data_root, FLAGS.downscale)
   h, wd = w["size"]
   print(f"wrote {w['color']}, {w['depth']}, {w['acc']} ({w['frames']} frames of {wd}x{h})")
 
