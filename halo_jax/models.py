@@ -165,8 +165,10 @@ class DeformNeRF(nn.Module):
 
   @nn.compact
   def __call__(self, points, viewdirs=None, density_noise_key=None, density_noise=0.0,
-               times=None):
-    """Args: points [..., 3]; viewdirs [..., 3] or None; times [..., 1] in [0, 1].
+               times=None, band_fraction=None):
+    """Args: points [..., 3]; viewdirs [..., 3] or None; times [..., 1] in [0, 1];
+    band_fraction: FreeNeRF's mask position over the encodings of x, t (the
+    deformation's input) and of the canonical NeRF, or None for none.
 
     Returns: sigma [...] >= 0 and rgb [..., 3] in (0, 1).
     """
@@ -174,8 +176,8 @@ class DeformNeRF(nn.Module):
       raise ValueError("DeformNeRF needs times [..., 1] (a dynamic scene)")
     shape = points.shape[:-1]
     x, times = _rows(points), _rows(jnp.broadcast_to(times, (*shape, 1)))
-    feats = [encoding.positional_encoding(x, self.pos_freqs, self.pos_scale),
-             encoding.positional_encoding(times, self.time_freqs, self.time_scale)]
+    feats = [masked_positional_encoding(x, self.pos_freqs, self.pos_scale, band_fraction),
+             masked_positional_encoding(times, self.time_freqs, self.time_scale, band_fraction)]
     if self.base_freqs > 0:
       feats = [encoding.positional_encoding(x, self.base_freqs, self.base_scale),
                encoding.positional_encoding(times, self.base_time_freqs,
@@ -186,7 +188,7 @@ class DeformNeRF(nn.Module):
                         self.width, self.depth, tuple(self.skips), self.use_viewdirs,
                         self.dir_freqs, self.density_bias, self.density_activation,
                         name="canonical")
-    return canonical(points + offset, viewdirs, density_noise_key, density_noise)
+    return canonical(points + offset, viewdirs, density_noise_key, density_noise, band_fraction)
 
 
 class EPINeRF(nn.Module):

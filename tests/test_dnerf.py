@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from conftest import SHARED_DATA, tiny_config
-from halo_jax import datasets, metrics, models, pipeline, stages
+from halo_jax import datasets, methods, metrics, models, pipeline, stages
 from halo_jax.datasets import blender
 from halo_jax.stages import transfer
 
@@ -187,6 +187,34 @@ def test_halo_for_time_smoke(scene_root, tmp_path):
   assert os.path.exists(os.path.join(wd, "hi", "eval", "flicker.png"))
   log = [json.loads(l) for l in open(os.path.join(wd, "metrics.jsonl"))]
   assert any("empty" in r for r in log if r.get("stage") == "hi")
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("method", ["freenerf", "halo+freenerf", "nerf_paper"])
+def test_every_method_trains_on_a_dynamic_scene(method, scene_root, tmp_path):
+  """FreeNeRF's mask reaches the deformation field's x and t encodings and its
+  canonical NeRF; the original NeRF's coarse MLP is a deformation field too."""
+  path = write_npz(str(tmp_path / "d.npz"), scene_root)
+  c = methods.apply(dynamic_config(path), method)
+  for name in ("lo", "hi"):
+    c[name].update(steps=2, microbatches=1, batch_rays=64, checkpoint_every=2, eval_every=0)
+  c.hi.sampler.update(num_coarse=8, num_samples=8)
+  infos = pipeline.run(c, str(tmp_path / "run"))
+  assert np.isfinite(infos["hi"]["eval"]["psnr"])
+
+
+def test_deform_field_band_mask_hides_high_bands():
+  model = models.DeformNeRF(pos_freqs=4, time_freqs=3, width=16, depth=2, skips=(),
+                            use_viewdirs=False, deform_width=16, deform_depth=2)
+  pts = jax.random.uniform(jax.random.PRNGKey(0), (5, 3))
+  t = jnp.full((5, 1), 0.3)
+  params = model.init(jax.random.PRNGKey(1), pts, None, times=t)
+  params = jax.tree_util.tree_map(lambda x: x + 0.1, params)  # a non-zero offset layer
+  full = model.apply(params, pts, None, times=t)[0]
+  low = model.apply(params, pts, None, times=t, band_fraction=0.0)[0]
+  assert not np.allclose(full, low)
+  np.testing.assert_allclose(model.apply(params, pts, None, times=t, band_fraction=1.0)[0],
+                             full, rtol=1e-6)
 
 
 def test_static_model_on_dynamic_data_is_refused(scene_root, tmp_path):

@@ -1,0 +1,127 @@
+"""Every method on the same views with the same training wall-clock budget.
+
+  halo-compare --config=configs/blender.py:lego_8view_cpu --workdir=DIR
+  (or python experiments/few_shot.py with the same flags)
+
+Trains each of --methods (default: all five of halo_jax.methods: nerf_paper,
+nerf_tuned, freenerf, halo, halo+freenerf; docs/baselines.md) for
+`config.budget_s` seconds of training (held-out evaluations for the curves
+are not counted), evaluates all on the same held-out views and writes
+DIR/results.json, DIR/results.md and DIR/psnr_vs_time.png. With
+--all_views_reference it also trains nerf_tuned on every training view for
+the same budget (the upper reference). A killed run, launched again with the same
+flags, resumes each method from its last checkpoint (finished stages are not
+retrained: their final states are in DIR/<method>).
+"""
+import json
+import os
+
+from absl import app, flags, logging
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # pylint: disable=g-import-not-at-top
+from ml_collections import config_flags
+
+from halo_jax import config_files, datasets, methods, pipeline, runs, user_errors, workdir_lock
+
+FLAGS = flags.FLAGS
+config_flags.DEFINE_config_file("config", None, "HALO config (path[:variant]).",
+                                lock_config=True)
+flags.DEFINE_string("workdir", None, "Output folder.")
+flags.DEFINE_bool("all_views_reference", False, "Also train NeRF on all training views.")
+flags.DEFINE_integer("curve_points", 4, "Held-out evaluations per method for the curve.")
+flags.DEFINE_list("methods", ["nerf_paper", "nerf_tuned", "freenerf", "halo", "halo+freenerf"],
+                  "Methods to train (names in halo_jax.methods.METHODS); results of others "
+                  "already in DIR/results.json are kept.")
+flags.mark_flags_as_required(["config", "workdir"])
+
+
+def method_configs(config, names, all_views):
+  """{method: its config on this scene} (halo_jax.methods), plus
+  nerf_tuned on every training view with all_views."""
+  out = {name: methods.apply(config, name) for name in names}
+  if all_views:
+    ref = methods.apply(config, "nerf_tuned")
+    ref.data.train_views = "all"
+    out["nerf_tuned_all_views"] = ref
+  for c in out.values():
+    if c.data.kind == "procedural" and not c.data.root:  # generated once, shared
+      c.data.root = os.path.join(FLAGS.workdir, f"scene_{c.data.procedural_scene}")
+    for name in pipeline.stage_names(c):
+      c[name].eval_every_s = c.budget_s / max(FLAGS.curve_points, 1) if c.budget_s else 0.0
+  return out
+
+
+def write_report(results, workdir, n_test):
+  dynamic = any("flicker" in r for r in results.values())
+  level = runs.common_level(list(results.values()))
+  reach = f" s to {level:.1f} dB |" if level is not None else ""
+  lines = ["| method | held-out PSNR | SSIM | LPIPS (VGG) |" + (" flicker |" if dynamic else "")
+           + " training s |" + reach,
+           "|---|---|---|---|" + ("---|" if dynamic else "") + "---|" + ("---|" if reach else "")]
+  def cell(value, fmt):  # '-' where a run has no such metric
+    return "-" if value is None or value != value else format(value, fmt)
+
+  for name, r in results.items():
+    flicker = f" {cell(r.get('flicker'), '.2f')} |" if dynamic else ""
+    when = f" {cell(runs.seconds_to_reach([r], level), '.0f')} |" if reach else ""
+    lines.append(f"| {name} | {r['psnr']:.2f} | {r['ssim']:.3f} | {cell(r.get('lpips'), '.3f')} "
+                 f"|{flicker} {r['wall_s']:.0f} |{when}")
+  note = (" Flicker: mean |I(t+1) - 2 I(t) + I(t-1)| in 8-bit levels over a video at the "
+          "first held-out camera (halo_jax.metrics.temporal_flicker)." if dynamic else "")
+  if reach:
+    note += (f" 's to {level:.1f} dB': training seconds until the held-out curve (the first "
+             f"eval.curve_views views) first reached {level:.1f} dB, 0.5 dB under the lowest "
+             "curve peak of all methods.")
+  table = "\n".join(lines) + f"\n\n({n_test} held-out views.{note})\n"
+  with open(os.path.join(workdir, "results.md"), "w") as f:
+    f.write(table)
+  plt.figure(figsize=(6, 4))
+  for name, r in results.items():
+    if r["curve"]:
+      t, p = zip(*r["curve"])
+      plt.plot(t, p, marker="o", label=name)
+  plt.xlabel("training wall-clock (s)")
+  plt.ylabel("held-out PSNR (dB), curve views")
+  plt.grid(alpha=0.3)
+  plt.legend()
+  plt.tight_layout()
+  plt.savefig(os.path.join(workdir, "psnr_vs_time.png"), dpi=120)
+  return table
+
+
+def main(argv):
+  del argv
+  logging.set_verbosity(logging.WARNING)
+  # one launch per workdir; bad input is one line and exit 2, not a traceback
+  with user_errors.reported(), workdir_lock.hold(FLAGS.workdir):
+    run(FLAGS.config)
+
+
+def run(config):
+  """The experiment in FLAGS.workdir (locked by main)."""
+  config = FLAGS.config
+  os.makedirs(FLAGS.workdir, exist_ok=True)
+  results_path = os.path.join(FLAGS.workdir, "results.json")
+  results = {}
+  if os.path.exists(results_path):
+    with open(results_path) as f:
+      results = json.load(f)
+  n_test = 0
+  for name, cfg in method_configs(config, FLAGS.methods, FLAGS.all_views_reference).items():
+    dataset = datasets.load(cfg.data, os.path.join(FLAGS.workdir, name))
+    n_test = len(dataset.test.names)
+    results[name] = runs.run_method(cfg, os.path.join(FLAGS.workdir, name), dataset)
+    with open(results_path, "w") as f:
+      json.dump(results, f, indent=1)
+  print(write_report(results, FLAGS.workdir, n_test))
+
+
+def cli():
+  """The halo-compare console script."""
+  app.run(main, argv=config_files.resolve_argv())
+
+
+if __name__ == "__main__":
+  cli()

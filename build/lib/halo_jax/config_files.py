@@ -1,0 +1,47 @@
+"""Where a --config file is: as given, else among the configs shipped in the package.
+
+The repository's `configs/` folder is installed as `halo_jax.configs`, so
+`--config=blender.py:lego_8view_cpu` (or `configs/blender.py:...`) works from
+any directory once halo-jax is installed, not only inside a clone.
+"""
+import importlib.util
+import os
+import sys
+
+
+def shipped_folder() -> str:
+  """The folder of the installed halo_jax.configs package ('' if none)."""
+  try:
+    spec = importlib.util.find_spec("halo_jax.configs")
+  except ImportError:
+    return ""
+  locations = list(spec.submodule_search_locations or []) if spec else []
+  return locations[0] if locations else ""
+
+
+def resolve(spec: str) -> str:
+  """'configs/blender.py:lego' -> an existing path with the same ':variant'.
+
+  Unchanged when the path exists or no shipped config has its file name (the
+  config loader then names the missing file).
+  """
+  path, sep, variant = spec.partition(":")
+  if os.path.exists(path):
+    return spec
+  folder = shipped_folder()
+  if folder:
+    candidate = os.path.join(folder, os.path.basename(path))
+    if os.path.exists(candidate):
+      return candidate + sep + variant
+  return spec
+
+
+def resolve_argv(argv=None, flag: str = "--config"):
+  """argv with the value of --config=SPEC resolved (both '--config=X' and '--config X')."""
+  argv = list(sys.argv if argv is None else argv)
+  for i, arg in enumerate(argv):
+    if arg.startswith(flag + "="):
+      argv[i] = flag + "=" + resolve(arg[len(flag) + 1:])
+    elif arg == flag and i + 1 < len(argv):
+      argv[i + 1] = resolve(argv[i + 1])
+  return argv

@@ -1,0 +1,124 @@
+"""Dataset loaders, one registry entry per `data.kind`; `load(data_config,
+workdir)` picks one. Each entry says its ray geometry (halo_jax.geometry) and
+whether its frames carry times, so a config can be checked before any data
+is read."""
+import dataclasses
+import os
+from typing import Callable
+
+from halo_jax import registry
+from halo_jax.datasets import blender, dnerf, llff, procedural, stanford_lf
+from halo_jax.datasets.base import DataError, Dataset, Views, camera_radius
+from halo_jax.geometry import Geometry
+
+
+@dataclasses.dataclass(frozen=True)
+class DatasetSpec:
+  """load: (data config, workdir) -> Dataset; geometry of its rays; dynamic:
+  its frames carry capture times."""
+  load: Callable
+  geometry: Geometry
+  dynamic: bool = False
+
+
+LOADERS = registry.Registry[DatasetSpec]("dataset")
+
+
+def _names(spec, split_names):
+  """A view list from the config: a list/tuple of names, 'all', or 'every:K'."""
+  if spec in (None, "all"):
+    return None
+  if isinstance(spec, str) and spec.startswith("every:"):
+    return list(split_names)[::int(spec.split(":")[1])]
+  if isinstance(spec, str):
+    return [s for s in spec.split(",") if s]
+  return list(spec)
+
+
+def _root(cfg, example):
+  if not cfg.root:
+    raise DataError(f"data.root is empty: pass --config.data.root={example}")
+  return cfg.root
+
+
+def _load_light_field(cfg, workdir="") -> Dataset:
+  """A two-plane light field: near / far are the EPI angle bounds theta_n, theta_f."""
+  root = _root(cfg, "/path/to/stanford_lf/<scene>")
+  signs = tuple(cfg.grid_signs)
+  train = stanford_lf.load_views(root, stanford_lf.names_of(cfg.train_views, root),
+                                 cfg.factor, signs)
+  test = stanford_lf.load_views(root, stanford_lf.names_of(cfg.test_views, root),
+                                cfg.factor, signs)
+  if test.images.shape[1:] != train.images.shape[1:]:
+    raise DataError(f"{root}: test and train views differ in size")
+  _, (_, cols) = stanford_lf.scan(root)
+  theta_n, theta_f = stanford_lf.theta_bounds(cfg.disparity_px, train.width * cfg.factor, cols)
+  return Dataset(train, test, theta_n, theta_f, 0.0, False, Geometry.TWO_PLANE)
+
+
+def _load_llff(cfg, workdir="") -> Dataset:
+  """A forward-facing LLFF scene in NDC: near 0, far 1 (t along NDC rays)."""
+  root = _root(cfg, "/path/to/nerf_llff_data/<scene>")
+  names = llff.split_names(root, cfg.factor)
+  train = llff.load_views(root, cfg.factor, _names(cfg.train_views, names) or names)
+  test = llff.load_views(root, cfg.factor, _names(cfg.test_views, names) or names)
+  return Dataset(train, test, 0.0, 1.0, 0.0, bool(cfg.white_background), Geometry.NDC)
+
+
+def _blender_split_names(root, split):
+  _, meta = blender._read_transforms(root, split)  # pylint: disable=protected-access
+  return [blender.view_name(fr["file_path"]) for fr in meta["frames"]]
+
+
+def _load_posed(cfg, root, module, split_names) -> Dataset:
+  """Blender-layout scenes (static or with times): cameras around the object."""
+  train_names = _names(cfg.train_views, split_names(root, "train"))
+  test_names = _names(cfg.test_views, split_names(root, cfg.test_split))
+  white = bool(cfg.white_background)
+  train = module.load_views(root, "train", cfg.factor, train_names, white)
+  test = module.load_views(root, cfg.test_split, cfg.factor, test_names, white)
+  if test.images.shape[1:] != train.images.shape[1:]:
+    raise DataError(f"{root}: test images are {test.images.shape[2]}x{test.images.shape[1]}, "
+                    f"train images {train.images.shape[2]}x{train.images.shape[1]}")
+  return Dataset(train, test, float(cfg.near), float(cfg.far), camera_radius(train.c2w), white,
+                 Geometry.SPHERE)
+
+
+def _load_blender(cfg, workdir=""):
+  return _load_posed(cfg, _root(cfg, "/path/to/nerf_synthetic/<scene>"), blender,
+                     _blender_split_names)
+
+
+def _load_dnerf(cfg, workdir=""):
+  return _load_posed(cfg, _root(cfg, "/path/to/dnerf/<scene>"), dnerf, dnerf.split_names)
+
+
+def _load_procedural(cfg, workdir=""):
+  """A built-in scene (procedural.SCENES[data.procedural_scene]); with an
+  empty data.root it is generated into `<workdir>/scene_<name>` (or a
+  temporary folder), so the default job needs no data."""
+  name = cfg.procedural_scene
+  root = cfg.root or os.path.join(workdir or "/tmp/halo_jax", f"scene_{name}")
+  procedural.generate(root, size=cfg.procedural_size, scene=name)
+  return _load_posed(cfg, root, blender, _blender_split_names)
+
+
+LOADERS.register("blender", DatasetSpec(_load_blender, Geometry.SPHERE))
+LOADERS.register("procedural", DatasetSpec(_load_procedural, Geometry.SPHERE))
+LOADERS.register("dnerf", DatasetSpec(_load_dnerf, Geometry.SPHERE, dynamic=True))
+LOADERS.register("llff", DatasetSpec(_load_llff, Geometry.NDC))
+LOADERS.register("stanford_lf", DatasetSpec(_load_light_field, Geometry.TWO_PLANE))
+
+
+def spec_of(data_cfg) -> DatasetSpec:
+  """The registry entry of `data.kind` (ConfigError naming the field)."""
+  return LOADERS.get(data_cfg.kind, "data.kind")
+
+
+def load(cfg, workdir: str = "") -> Dataset:
+  """Loads the scene `cfg.kind` (a LOADERS entry) as the data config describes."""
+  return spec_of(cfg).load(cfg, workdir)
+
+
+__all__ = ["DataError", "Dataset", "DatasetSpec", "LOADERS", "Views", "load", "spec_of",
+           "blender", "dnerf", "llff", "procedural", "stanford_lf"]

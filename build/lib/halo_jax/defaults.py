@@ -1,0 +1,314 @@
+"""The full set of fields every config has, with the paper's values (and the authors' code's, where the paper gives none).
+
+Config files under `configs/` start from `base_config()` and change a few fields,
+so every run, whatever its file, carries every field and overrides such as
+`--config.lo.encoding.L=6` always find their target.
+"""
+import os
+
+import ml_collections
+
+
+def _model(width=256, depth=8, use_viewdirs=False):
+  return ml_collections.ConfigDict(dict(
+      width=width, depth=depth, skips=(4,), use_viewdirs=use_viewdirs, dir_freqs=4,
+      density_bias=-1.0))
+
+
+def _nerf_model(use_viewdirs):
+  m = _model(use_viewdirs=use_viewdirs)
+  m.kind = "nerf"                    # models.MODELS: 'nerf', 'deform' (times), 'epi' (light fields)
+  m.density_activation = "softplus"  # or 'relu' (the original NeRF)
+  m.deform_width = 128               # deform only: the deformation MLP
+  m.deform_depth = 4
+  return m
+
+
+def _train(steps, batch_rays, lr_init, lr_final):
+  """Fields shared by every stage's training loop."""
+  return dict(
+      steps=steps,
+      batch_rays=batch_rays,
+      # Run each step's batch in this many equal parts, summing their gradients:
+      # the same step (per-ray PRNG keys), but each part's activations stay in
+      # cache (2.4x the matmul rate of a 128-wide MLP on CPU). 1: whole batch.
+      microbatches=1,
+      lr_init=lr_init,
+      lr_final=lr_final,
+      # 0: the rate falls log-linearly from lr_init to lr_final over `steps`;
+      # > 0: lr_init * (lr_final / lr_init) ** (step / lr_decay_steps), a
+      # schedule that does not depend on the step cap (the original NeRF's)
+      lr_decay_steps=0,
+      max_seconds=0.0,        # stop a stage after this much training time (0: no cap)
+      # stop with an error after this many non-finite steps in a row (each is
+      # skipped, leaving the parameters as they were; 0: never stop)
+      max_nonfinite=20,
+      checkpoint_every=1000,  # steps between checkpoints (and one at the end)
+      log_every=100,          # steps between metrics.jsonl lines
+      eval_every=0,           # steps between held-out evaluations (0: only at the end)
+      eval_every_s=0.0,       # or seconds of training time between them
+  )
+
+
+def _radiance_stage(L, scale, use_viewdirs, steps, num_samples, sampler):
+  """A radiance-field stage (trainer 'radiance'): the fields every such stage reads."""
+  cfg = ml_collections.ConfigDict(_train(steps, 3072, 5e-4, 1e-4))
+  cfg.kind = "radiance"
+  # time_L, time_scale: the time encoding of a dynamic (model.kind='deform') field.
+  cfg.encoding = ml_collections.ConfigDict(dict(L=L, scale=float(scale), time_L=0,
+                                                time_scale=1.0))
+  cfg.model = _nerf_model(use_viewdirs)
+  cfg.sampler = ml_collections.ConfigDict(dict(
+      kind=sampler,         # samplers.SAMPLERS: 'stratified', 'hierarchical', 'coarse_fine',
+                            # 'depth_guided', 'joint'
+      num_samples=num_samples,
+      num_coarse=64,        # hierarchical, coarse_fine: stratified samples of the first pass
+      coarse_weight=0.1,    # hierarchical, coarse_fine: weight of the first pass's L_rec
+      coarse_model=False,   # coarse_fine: the first pass has its own MLP (the original NeRF)
+      window=0.3,           # depth_guided: r, half window as a fraction of far - near
+      near_only=False,      # depth_guided: tighten only the near side (authors' code)
+  ))
+  cfg.density_noise = 1.0
+  cfg.precrop_steps = 500
+  cfg.precrop_frac = 0.5
+  cfg.one_image = False     # draw each step's rays from one random training view
+  return cfg
+
+
+def _hi_extras(cfg):
+  """The fields only the output stage reads: HALO's regularisers and sampler
+  options, and the baselines' (FreeNeRF's) terms, all off here."""
+  # with_lo: prepend Lo-NeRF's P.E. to this stage's (lets init_from_lo start
+  # Hi-NeRF as an exact copy of Lo-NeRF).
+  cfg.encoding.with_lo = False
+  cfg.empty = ml_collections.ConfigDict(dict(
+      weight=0.0,           # lambda of L_empty (0 leaves the loss and the Lo bank out)
+      tau=0.01,             # Lo-NeRF opacity below which a random ray counts as empty
+      num_rays=1024,        # empty rays per step
+      num_samples=64,       # uniform samples for both renderings of those rays
+      bank_rays=65536,      # random rays rendered once by the frozen Lo-NeRF
+      start_step=0,
+  ))
+  # sampler.kind='joint': a low-frequency ray field trained with this stage
+  # (L_consist) places the samples in tau_ray +- alpha, alpha falling linearly
+  # from 1 to alpha_final over alpha_steps (docs/light_fields.md).
+  cfg.joint = ml_collections.ConfigDict(dict(consist_weight=1.0, alpha_final=0.5,
+                                             alpha_steps=20000))
+  # Start from Lo-NeRF's weights: every layer of equal shape (the authors'
+  # option, input layers excluded), or exactly Lo's function with encoding.with_lo.
+  cfg.init_from_lo = False
+  # FreeNeRF (methods/freenerf.py): the P.E. bands open linearly until
+  # end * steps (0: no mask), and the occlusion loss on the density of the
+  # num_near samples nearest the camera (weight 0: off).
+  cfg.freq_reg = ml_collections.ConfigDict(dict(end=0.0))
+  cfg.occlusion = ml_collections.ConfigDict(dict(weight=0.0, num_near=10))
+  return cfg
+
+
+def light_field_stage(cfg):
+  """Turns a radiance stage into the two-plane light-field stage (trainer
+  'light_field', model 'epi') and adds the fields only it reads."""
+  cfg.kind = "light_field"
+  cfg.model.kind = "epi"
+  # Composite training rays onto a random colour per ray, so partial opacity
+  # costs (the authors' light-field code).
+  cfg.random_background = False
+  # Gaussian Fourier features of the EPI point (s', t', theta) and the view
+  # (u, v): the authors' feature counts. Its stds are the authors', whose features
+  # are sin(f x) with s, t in pixels / 1024 (the image spans 1): their st std
+  # 64 is our 5.09 (encoding.fourier_std_from_angular(64, 1)); their theta
+  # std 8 over their ~1 rad range makes ~0.8 cycles across it, ours over the
+  # knights' 0.19 rad ~1. The colour gets the raw (u, v) (uv_features=0; the
+  # input itself always reaches the colour), as the authors' colour reads
+  # only its lowest sin/cos pair.
+  cfg.fourier = ml_collections.ConfigDict(dict(
+      st_std=5.09, st_features=10, theta_std=8.0, theta_features=5, uv_std=1.0,
+      uv_features=0, seed=0))
+  cfg.joint.update(
+      # L_consist's tau_nerf: 'expected' (the paper) or 'max_weight'
+      target="expected",
+      # share of the samples stratified over the whole range instead of the
+      # window (0: the paper's formula; the authors' code uses 0.5), so
+      # density outside the window can still form
+      full_range=0.0,
+      # rays per step drawn between the training cameras (uv in their box, st
+      # anywhere) on which the ray field alone follows the radiance field
+      # (0: none, the paper; the authors' code uses 512 with batches of 3072)
+      random_rays=0,
+      # weight of the ray field's own colour loss (0: no colour head, the
+      # paper); above 0 it is trained on the pixels and, on the random rays,
+      # on the radiance field's colour (the authors' code, weight 1)
+      color_weight=0.0,
+      # L_consist's weight into the radiance field (its tau pulled towards the
+      # ray field's). The paper's formula has no stop-gradient; the authors'
+      # code trains only the ray field (0)
+      nerf_consist_weight=0.0,
+      # the ray field's Fourier features of (u, v, s, t); uv_std, where not 0,
+      # replaces std for (u, v)
+      std=1.0, uv_std=0.0, num_features=16, seed=0, model=_model(width=128, depth=4))
+  cfg.joint.model.skips = ()
+  return cfg
+
+
+def data_root(*parts) -> str:
+  """A path under the datasets folder: $HALO_DATA, else ./data (the layout each
+  loader expects is in README.md)."""
+  return os.path.join(os.environ.get("HALO_DATA", "data"), *parts)
+
+
+def _data():
+  """The scene and its views (data.kind: a datasets.LOADERS entry)."""
+  return ml_collections.ConfigDict(dict(
+      kind="blender",          # 'blender' | 'procedural' | 'dnerf' | 'stanford_lf' | 'llff'
+      root="",                 # scene folder, e.g. data/nerf_synthetic/lego
+      factor=2,                # integer downscale (2: 400x400, 8: 100x100)
+      train_views="all",       # 'all', 'every:K', a list of names, or 'r_2,r_16,...'
+      test_views="all",
+      test_split="test",
+      near=2.0,
+      far=6.0,
+      white_background=True,
+      procedural_size=100,     # image size of the generated scene
+      procedural_scene="spheres",  # datasets.procedural.SCENES
+      # stanford_lf: disparity range (pixels per grid step at the files' size)
+      # that bounds the EPI angle every ray is sampled in, and the signs of u, v
+      # along growing grid column, row (datasets/stanford_lf.py says why -1)
+      disparity_px=(-2.0, 1.0),
+      grid_signs=(-1.0, -1.0),
+  ))
+
+
+def _parallel():
+  """Data parallelism and multi-host settings (halo_jax.parallel)."""
+  return ml_collections.ConfigDict(dict(
+      data_parallel=False,   # shard each step's rays over all local (or all hosts') devices
+      multihost=False,       # jax.distributed.initialize before training
+      coordinator="",        # host:port of process 0 ('' : from the cluster environment)
+      num_processes=1,
+      process_id=0,
+      heartbeat_s=100,       # a process whose peer is silent this long is terminated
+  ))
+
+
+def _tune():
+  """The frequency search (halo_jax.tuning)."""
+  return ml_collections.ConfigDict(dict(
+      grid="10:1,8:1,6:1,5:1,5:4,5:8,5:16,5:32",  # L:s points, searched high to low frequency
+      threshold=25.0,        # the paper's threshold on the criterion
+      num_pairs=8,           # nearby view pairs rendered per point
+      angle_deg=1.5,         # their baseline along the orbit
+      mask_fraction=0.01,    # share of the largest spectrum coefficients dropped (beside DC)
+      seed=0,
+      lo_seconds=0.0,        # training time of each short Lo-NeRF (0: lo.max_seconds)
+      lo_steps=0,            # step cap of each short Lo-NeRF (0: lo.steps)
+  ))
+
+
+def _ray_stage():
+  """The ray-field stage (trainer 'ray_field')."""
+  r = ml_collections.ConfigDict(_train(24000, 4096, 5e-4, 5e-6))
+  r.kind = "ray_field"
+  r.encoding = ml_collections.ConfigDict(dict(L=10, scale=32.0))
+  r.model = _model()
+  r.radius = 0.0              # sphere of the ray parametrisation (0: camera radius)
+  r.depth_target = "max_weight"  # or 'expected' (Lo-NeRF's normalised expected depth)
+  r.random_fraction = 0.5     # share of each batch drawn from random hemisphere rays
+  r.bank_rays = 262144        # random rays rendered once by the frozen Lo-NeRF
+  r.lo_samples = 0            # samples for the Lo-NeRF targets (0: Lo's own count)
+  return r
+
+
+def _eval():
+  """Held-out rendering and scoring."""
+  return ml_collections.ConfigDict(dict(
+      chunk=4096,          # rays per jitted rendering call
+      # Render each chunk in blocks of this many rays, one after another (0: the
+      # whole chunk at once, for GPUs). On CPU blocks that fit in cache are
+      # several times faster (raycast.in_blocks).
+      block_rays=0,
+      curve_views=5,       # held-out views used for the PSNR curve (final eval uses all)
+      save_images=True,
+      lpips=True,          # LPIPS-VGG in the final evaluation (needs H, W >= 32)
+      flicker_frames=24,   # dynamic scenes: frames of the fixed-camera video for flicker
+  ))
+
+
+def base_config() -> ml_collections.ConfigDict:
+  """All fields, set to the paper's full-resolution Blender protocol."""
+  c = ml_collections.ConfigDict()
+  c.seed = 0
+  # The method (halo_jax.methods) that made this config, for the record; the
+  # pipeline reads only the stage sections.
+  c.method = "halo"
+  c.stages = "lo,ray,hi"      # the stages to train now (the ones they need are restored)
+  c.final_stage = "hi"        # the stage whose field the method outputs
+  # Training-time budget in seconds for the whole pipeline (0: none). When set,
+  # each needed stage gets max_seconds = budget_s * its share (normalised over
+  # the stages the run needs), so NeRF (hi alone) and HALO get the same time.
+  c.budget_s = 0.0
+  c.budget_shares = ml_collections.ConfigDict(dict(lo=0.25, ray=0.10, hi=0.65))
+  c.data = _data()
+  c.lo = _radiance_stage(L=5, scale=32, use_viewdirs=False, steps=8000, num_samples=128,
+                         sampler="stratified")
+  c.hi = _hi_extras(_radiance_stage(L=10, scale=1, use_viewdirs=True, steps=80000,
+                                    num_samples=128, sampler="depth_guided"))
+  c.hi.lr_final = 5e-5
+  c.hi.precrop_steps = 0
+  c.hi.empty.weight = 0.1
+  # auto: choose lo.encoding.L / scale with the frequency criterion before
+  # training (halo_jax/tuning.py; the search runs in <workdir>/tune once).
+  c.lo.encoding.auto = False
+  c.parallel = _parallel()
+  c.tune = _tune()
+  c.ray = _ray_stage()
+  # The NeRF baselines (methods/): stratified samples per ray of nerf_tuned.
+  c.baseline = ml_collections.ConfigDict(dict(num_samples=64))
+  c.eval = _eval()
+  return c
+
+
+def cpu_sized(c: ml_collections.ConfigDict, budget_s: float) -> ml_collections.ConfigDict:
+  """Shrinks a config to fit `budget_s` seconds of training on 2 CPU cores.
+
+  The HALO stages share the budget as `budget_shares` says. The choices were
+  measured on lego 8-view at 100x100 (docs/results_lego_cpu.md):
+  - Lo-NeRF: 128x4 MLP, 32 samples, 4x the paper's learning rate and P.E.
+    L=5, s=1 (the paper's one-side Lo setting) instead of s=32: at s=32 the
+    nearly linear features need thousands of steps the budget does not have.
+  - Hi-NeRF: the same 128x4 trunk, its Hi-P.E. preceded by Lo's
+    (`encoding.with_lo`) and initialised as an exact copy of Lo-NeRF, then
+    refined with 32 samples from the ray field (r=0.3): from scratch, the
+    budget's Hi training does not get back to where Lo-NeRF already is.
+  - No view directions for either NeRF: with 8 views at 100x100 there is too
+    little data to learn view dependence, and Lo-NeRF has none to copy.
+  - The NeRF baseline (methods/nerf_tuned.py) uses the same 128x4 Hi model
+    with 64 stratified samples.
+  Steps are caps that the time budget normally reaches first; the learning
+  rate decays over them.
+  """
+  c.budget_s = budget_s
+  c.budget_shares.update(lo=0.30, ray=0.07, hi=0.63)
+  c.eval.chunk = 8192
+  # Cache-sized work on CPU (experiments/throughput.py): training steps in
+  # parts of 128 rays x 32 samples, renders in blocks of 256 rays.
+  c.eval.block_rays = 256
+  c.lo.microbatches = 8
+  c.hi.microbatches = 8
+  c.lo.encoding.scale = 1.0
+  c.lo.sampler.num_samples = 32
+  c.lo.update(batch_rays=1024, steps=1500, lr_init=2e-3, lr_final=2e-4, precrop_steps=200,
+              checkpoint_every=500, log_every=50)
+  c.ray.model.update(width=128, depth=4, skips=())
+  c.ray.update(batch_rays=2048, steps=3000, bank_rays=32768, checkpoint_every=1000,
+               log_every=100)
+  c.hi.encoding.with_lo = True
+  c.hi.init_from_lo = True
+  c.hi.sampler.num_samples = 32
+  c.hi.empty.update(num_rays=256, num_samples=32, bank_rays=32768)
+  # 4x the paper's rate, for Hi-NeRF and the NeRF baseline alike: a few
+  # thousand steps are all the budget allows, and both gain from it (docs/results_lego_cpu.md).
+  c.hi.update(batch_rays=1024, steps=6000, lr_init=2e-3, lr_final=2e-4, checkpoint_every=500,
+              log_every=50)
+  for name in ("lo", "hi"):
+    c[name].model.update(width=128, depth=4, skips=(), use_viewdirs=False)
+  return c

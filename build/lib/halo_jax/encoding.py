@@ -1,0 +1,129 @@
+"""Input encodings: positional encoding with a frequency count L and a scale s.
+
+Precision. In fp32 the angle 2^k x / s carries a rounding error of about
+|angle| * 2^-24 once it is formed, so a naive encoding loses all precision for
+large |x| * 2^L / s (0.4 absolute error in sin at |x| = 1e3, L = 16, s = 7).
+XLA's sin/cos reduce their argument exactly, so the only loss is in forming
+the angle. We form it as a1 + b, where a1 = x_hi * f_hi is an exact fp32
+product (x and f = 2^k / s split into 12-bit halves) and b is the small rest,
+then use sin(a1 + b) = sin a1 cos b + cos a1 sin b. The error is then about
+2^-24 * (3 + |angle| * 2^-11) instead of 2^-24 * |angle|; `experiments/
+stability.py` measures both against float64. For power-of-two s both forms
+are exact up to sin's own rounding.
+"""
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+_HI_MASK = np.uint32(0xFFFFF000)  # keeps sign, exponent and the top 11 stored mantissa bits
+
+
+def _split_host(values: np.ndarray):
+  """float64 [...] -> (hi, lo) float32 with hi holding 12 significant bits."""
+  hi = (values.astype(np.float32).view(np.uint32) & _HI_MASK).view(np.float32)
+  lo = (values - hi.astype(np.float64)).astype(np.float32)
+  return hi, lo
+
+
+def _split(x):
+  """fp32 x -> (x_hi, x_lo), x_hi with 12 significant bits, x_hi + x_lo == x exactly."""
+  hi = jax.lax.bitcast_convert_type(
+      jax.lax.bitcast_convert_type(x, jnp.uint32) & _HI_MASK, jnp.float32)
+  return hi, x - hi
+
+
+def sin_cos_of_scaled(x, freqs: np.ndarray):
+  """sin(x f) and cos(x f) for every frequency, with the compensated angle.
+
+  Args:
+    x: [..., D] coordinates (fp32 gets the compensated form unless every
+      frequency is a power of two; other dtypes the direct one).
+    freqs: [L] frequencies (host float64).
+
+  Returns:
+    sin, cos: [..., L * D] ordered (k, dim).
+  """
+  shape = (*x.shape[:-1], -1)
+  powers_of_two = np.all(np.frexp(np.asarray(freqs, np.float64))[0] == 0.5)
+  if x.dtype != jnp.float32 or powers_of_two:
+    # x * 2^k is exact in any binary float: no compensation needed.
+    angles = (x[..., None, :] * jnp.asarray(freqs, x.dtype)[:, None]).reshape(shape)
+    return jnp.sin(angles), jnp.cos(angles)
+  f_hi, f_lo = _split_host(np.asarray(freqs, np.float64))
+  f_hi, f_lo = jnp.asarray(f_hi)[:, None], jnp.asarray(f_lo)[:, None]
+  x_hi, x_lo = _split(x)
+  x, x_hi, x_lo = x[..., None, :], x_hi[..., None, :], x_lo[..., None, :]
+  a1 = (x_hi * f_hi).reshape(shape)                       # exact: 12 x 12 bits
+  b = (x_lo * f_hi + x * f_lo).reshape(shape)             # |b| <= |angle| 2^-11
+  s1, c1, sb, cb = jnp.sin(a1), jnp.cos(a1), jnp.sin(b), jnp.cos(b)
+  return s1 * cb + c1 * sb, c1 * cb - s1 * sb
+
+
+def positional_encoding(x, num_freqs: int, scale: float = 1.0, include_input: bool = True):
+  """gamma(x; L, s) = [x / s, sin(2^k x / s), cos(2^k x / s)] for k = 0..L-1.
+
+  The features are ordered (k, dim) with all sines first, then all cosines.
+
+  Args:
+    x: [..., D] coordinates.
+    num_freqs: L, the number of octaves (0 gives only the input, if included).
+    scale: s, every input is divided by s before encoding (s > 1 lowers all
+      frequencies).
+    include_input: prepend x / s to the features.
+
+  Returns:
+    [..., D * (2 L + include_input)] features.
+  """
+  freqs = 2.0 ** np.arange(num_freqs, dtype=np.float64) / float(scale)
+  feats = list(sin_cos_of_scaled(x, freqs))
+  if include_input:
+    feats = [x / scale] + feats
+  return jnp.concatenate(feats, axis=-1)
+
+
+def naive_positional_encoding(x, num_freqs: int, scale: float = 1.0):
+  """The uncompensated sin/cos features [..., 2 L D] (for the precision comparison)."""
+  angles = (x / scale)[..., None, :] * (2.0 ** jnp.arange(num_freqs, dtype=x.dtype))[:, None]
+  angles = angles.reshape(*x.shape[:-1], -1)
+  return jnp.concatenate([jnp.sin(angles), jnp.cos(angles)], -1)
+
+
+def encoded_size(dim: int, num_freqs: int, include_input: bool = True) -> int:
+  """Width of positional_encoding's output for a D-dimensional input."""
+  return dim * (2 * num_freqs + int(include_input))
+
+
+def fourier_matrix(seed: int, dim: int, num_features: int, std: float) -> np.ndarray:
+  """A fixed Gaussian frequency matrix B [dim, num_features], B ~ N(0, std^2)
+  (Tancik et al.'s random Fourier features), reproducible from `seed`."""
+  return (np.random.default_rng(seed).standard_normal((dim, num_features)) * std).astype(
+      np.float32)
+
+
+def fourier_std_from_angular(std: float, span: float) -> float:
+  """Our feature std for features written sin(f x), f ~ N(0, std^2) radians
+  per unit, over a coordinate that spans `span` units where ours spans 2.
+
+  gaussian_fourier_features uses sin(2 pi B x) with x in [-1, 1] across the
+  image (or camera grid): B cycles per unit, 2 B across. Features sin(f x)
+  over a span S complete f S / (2 pi) cycles across, so matching cycles gives
+  B = f S / (4 pi). (The authors' light-field code: sin(f x), s and t in
+  pixels / 1024, S = 1 across the image, so their std 64 is our 5.09.)
+  """
+  return std * span / (4.0 * np.pi)
+
+
+def gaussian_fourier_features(x, matrix: np.ndarray, include_input: bool = True):
+  """[x, sin(2 pi x B), cos(2 pi x B)] for a fixed B [D, F].
+
+  Args:
+    x: [..., D] coordinates.
+    matrix: B [D, F] (host array; see fourier_matrix).
+    include_input: prepend x.
+
+  Returns:
+    [..., D * include_input + 2 F] features.
+  """
+  angles = 2.0 * np.pi * (x @ jnp.asarray(matrix, x.dtype))
+  feats = [jnp.sin(angles), jnp.cos(angles)]
+  return jnp.concatenate(([x] if include_input else []) + feats, axis=-1)

@@ -1,0 +1,64 @@
+"""The frequency criterion of HALO sec. 4.1: how much a small camera move
+changes the 2D spectrum of rendered images.
+
+Definition (the paper leaves the details open; we fix them here so that its
+threshold of 25 means something):
+  * image scale: grey = mean of R, G, B, in [0, 255] (inputs in [0, 1] are
+    clipped to it first, so saturated renders count as 255);
+  * FFT normalisation: unitary ("ortho", divided by sqrt(H W)), so by
+    Parseval the criterion is on the scale of a pixel difference in grey
+    levels and does not grow with resolution;
+  * mask: per pair, the DC coefficient and round(mask_fraction H W) more of the
+    largest coefficients of (|F(I_a)| + |F(I_b)|) / 2 are dropped; these carry the
+    image's overall brightness and dominant low frequencies, which a camera
+    move changes the most even when the field is artefact-free;
+  * sigma = mean over pairs of the mean |F(I_a) - F(I_b)| over kept
+    coefficients.
+"""
+import jax
+import jax.numpy as jnp
+
+
+def grey_255(images):
+  """[..., H, W, 3] in [0, 1] -> [..., H, W] grey levels in [0, 255]."""
+  return jnp.clip(images, 0.0, 1.0).mean(-1) * 255.0
+
+
+def spectrum_mask(spec_a, spec_b, mask_fraction: float):
+  """Coefficients kept by the criterion: True except DC and the largest ones.
+
+  Args:
+    spec_a, spec_b: [..., H, W] complex spectra of one pair.
+    mask_fraction: share of coefficients (by mean magnitude) dropped.
+
+  Returns:
+    [..., H, W] bool.
+  """
+  mag = 0.5 * (jnp.abs(spec_a) + jnp.abs(spec_b))
+  h, w = mag.shape[-2:]
+  num_drop = int(round(mask_fraction * h * w))
+  flat = mag.reshape(*mag.shape[:-2], h * w)
+  keep = jnp.ones(flat.shape, bool).at[..., 0].set(False)  # DC is index 0
+  if num_drop > 0:
+    # Rank without DC, so num_drop coefficients besides it are dropped.
+    _, top = jax.lax.top_k(flat.at[..., 0].set(-1.0), num_drop)
+    keep = keep & ~jnp.any(jnp.arange(h * w) == top[..., :, None], axis=-2)
+  return keep.reshape(mag.shape)
+
+
+def spectrum_difference(images_a, images_b, mask_fraction: float = 0.01):
+  """sigma = mean_i mean_kept |F(I_a,i) - F(I_b,i)|.
+
+  Args:
+    images_a, images_b: [N, H, W, 3] pairs of renders in [0, 1].
+    mask_fraction: share of the largest coefficients dropped (beside DC).
+
+  Returns:
+    scalar sigma (grey levels; 0 for identical or constant images).
+  """
+  fa = jnp.fft.fft2(grey_255(images_a), norm="ortho")
+  fb = jnp.fft.fft2(grey_255(images_b), norm="ortho")
+  keep = spectrum_mask(fa, fb, mask_fraction)
+  diff = jnp.abs(fa - fb) * keep
+  per_pair = diff.sum((-2, -1)) / jnp.maximum(keep.sum((-2, -1)), 1)
+  return per_pair.mean()

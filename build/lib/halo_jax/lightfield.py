@@ -1,0 +1,41 @@
+"""Two-plane light fields: the EPI point parameterisation and the joint
+sampler's schedule (docs/light_fields.md). Pure functions.
+
+A ray is (u, v, s, t): u, v on the camera plane, s, t on the image plane. A
+point on it is (u, v, s, t, theta), theta the slope of its line in the
+epipolar-plane image; delta = cot(theta) is its normalised disparity: the
+same point is seen at s - (u - u') delta from camera u'. Aligning every point
+to one camera (u*, v*) gives the 3D point (s', t', theta).
+"""
+import jax.numpy as jnp
+
+
+def epi_points(uv, st, theta, uv_star=(0.0, 0.0)):
+  """Aligns points on two-plane rays to the camera (u*, v*).
+
+  s' = s + (u - u*) cot(theta), t' = t + (v - v*) cot(theta).
+
+  Args:
+    uv: [..., 2] camera-plane coordinates of the rays.
+    st: [..., 2] image-plane coordinates of the rays.
+    theta: [...] EPI angles of the points, in (0, pi).
+    uv_star: the camera every point is aligned to.
+
+  Returns:
+    [..., 3] points (s', t', theta).
+  """
+  cot = jnp.cos(theta) / jnp.sin(theta)
+  aligned = st + (uv - jnp.asarray(uv_star, uv.dtype)) * cot[..., None]
+  return jnp.concatenate([aligned, theta[..., None]], -1)
+
+
+def theta_of_tau(tau, theta_n, theta_f):
+  """tau in [0, 1] along the angle range -> theta."""
+  return theta_n + (theta_f - theta_n) * tau
+
+
+def alpha_schedule(step, steps: int, final: float):
+  """The joint sampler's window scale: 1 at step 0, linearly to `final` at
+  `steps`, then constant."""
+  frac = jnp.clip(jnp.asarray(step, jnp.float32) / max(steps, 1), 0.0, 1.0)
+  return 1.0 - (1.0 - final) * frac

@@ -1,0 +1,38 @@
+"""Launches HALO's stages.
+
+  python -m halo_jax.main --config=configs/blender.py:lego_8view \
+      --workdir=DIR --config.data.root=PATH [--config.stages=lo,ray,hi]
+
+This file is kept short: the logic lives in `halo_jax.pipeline`.
+"""
+import json
+
+from absl import app, flags, logging
+from ml_collections import config_flags
+
+from halo_jax import config_files, parallel, pipeline, user_errors
+
+FLAGS = flags.FLAGS
+config_flags.DEFINE_config_file("config", None, "Config file (path[:variant]).",
+                                lock_config=True)
+flags.DEFINE_string("workdir", None, "Folder for checkpoints, logs and renders.")
+flags.mark_flags_as_required(["config", "workdir"])
+
+
+def main(argv):
+  del argv
+  logging.set_verbosity(logging.WARNING)  # orbax logs every save at INFO
+  with user_errors.reported():
+    parallel.initialize(FLAGS.config.parallel)
+    infos = pipeline.run(FLAGS.config, FLAGS.workdir)
+  print(pipeline.table(infos))
+  print(json.dumps({"workdir": FLAGS.workdir}))
+
+
+def cli():
+  """The halo-train console script."""
+  app.run(main, argv=config_files.resolve_argv())
+
+
+if __name__ == "__main__":
+  cli()

@@ -1,0 +1,51 @@
+"""Methods as data: each is a function from a scene's config (HALO's protocol,
+as configs/<dataset>.py builds it) to the config of that method on the same
+scene: which stages it trains and, per stage, its model, sampler and loss
+terms. The pipeline runs whatever the config says; adding a method is a
+module here plus one `register` line below, never an edit to the pipeline.
+
+  c = methods.apply(configs.blender.get_config("lego_8view_cpu"), "freenerf")
+"""
+import copy
+
+from halo_jax import registry
+from halo_jax.methods import freenerf, halo, halo_freenerf, nerf_paper, nerf_tuned
+from halo_jax.methods.base import Method
+
+METHODS = registry.Registry[Method]("method")
+# Older spelling of nerf_tuned in config variants ('<scene>_..._nerf').
+ALIASES = {"nerf": "nerf_tuned"}
+METHODS.register("halo", halo.METHOD)
+METHODS.register("nerf_tuned", nerf_tuned.METHOD)
+METHODS.register("nerf_paper", nerf_paper.METHOD)
+METHODS.register("freenerf", freenerf.METHOD)
+METHODS.register("halo+freenerf", halo_freenerf.METHOD)
+
+
+
+def apply(config, name: str):
+  """A copy of `config` turned into method `name` (METHODS or ALIASES)."""
+  name = ALIASES.get(name, name)
+  c = METHODS.get(name, "method").apply(copy.deepcopy(config))
+  c.method = name
+  return c
+
+
+def split_variant(arg: str, flags=("cpu",)):
+  """'lego_8view_cpu_nerf_paper' -> (['lego', '8view'], {'cpu'}, 'nerf_paper').
+
+  The variant ends with an optional method name (METHODS or ALIASES; 'halo'
+  when absent), before it optional flags from `flags`.
+  """
+  method = "halo"
+  for name in sorted(list(METHODS.names()) + list(ALIASES), key=len, reverse=True):
+    if arg == name or arg.endswith("_" + name):
+      method, arg = ALIASES.get(name, name), arg[:-len(name)].rstrip("_")
+      break
+  parts, found = arg.split("_") if arg else [], set()
+  while parts and parts[-1] in flags:
+    found.add(parts.pop())
+  return parts, found, method
+
+
+__all__ = ["ALIASES", "METHODS", "Method", "apply", "split_variant"]

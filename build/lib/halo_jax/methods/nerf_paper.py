@@ -1,0 +1,38 @@
+"""nerf_paper: the original NeRF (Mildenhall et al. 2020), as the HALO paper's
+NeRF row reports it (taken from DietNeRF's table).
+
+From the NeRF authors' Blender settings: two MLPs, a coarse one with 64
+stratified samples and a fine one with 128 importance samples composited
+together with the coarse ones; ReLU density; no density noise on 360-degree
+scenes (1.0 on forward-facing ones, as their LLFF settings); view
+directions; 1024 rays per step from one training image; a centre crop of 0.5
+for the first 500 steps; Adam 5e-4 decaying 10x per 500k steps; both passes'
+L_rec weighted 1. The model width and depth are the scene config's (the
+paper's 8x256 in the full protocols, the CPU size in *_cpu ones), so that
+the comparison is of the method, not of the model size.
+"""
+from halo_jax import datasets, geometry
+from halo_jax.methods import base, nerf_tuned
+
+RAYS_PER_STEP = 1024
+
+
+def apply(c):
+  nerf_tuned.apply(c)
+  hi = c.hi
+  hi.sampler.update(kind="coarse_fine", num_coarse=64, num_samples=128, coarse_model=True,
+                    coarse_weight=1.0)
+  hi.model.update(density_activation="relu", density_bias=0.0, use_viewdirs=True)
+  forward_facing = datasets.spec_of(c.data).geometry == geometry.Geometry.NDC
+  hi.density_noise = 1.0 if forward_facing else 0.0
+  hi.update(batch_rays=RAYS_PER_STEP, one_image=True, precrop_steps=500, precrop_frac=0.5,
+            lr_init=5e-4, lr_final=5e-5, lr_decay_steps=500000)
+  if hi.microbatches > 1:
+    # ~4x nerf_tuned's samples per ray: 4x the parts keeps each part's
+    # activations the same size (CPU cache; see defaults.cpu_sized)
+    hi.microbatches = min(4 * hi.microbatches, RAYS_PER_STEP // 16)
+  return c
+
+
+METHOD = base.Method("NeRF as published: coarse + fine MLPs, ReLU density, one image a step",
+                     apply)

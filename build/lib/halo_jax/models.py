@@ -1,0 +1,313 @@
+"""Flax models: the NeRF MLPs and the ray fields (light-field networks), and
+the registry that builds a stage's radiance field from its config."""
+import dataclasses
+from typing import Callable, Sequence
+
+import flax.linen as nn
+import jax
+import jax.numpy as jnp
+
+from halo_jax import geometry
+
+from halo_jax import encoding, registry, rng
+
+
+def _rows(x):
+  """x [..., C] as rows [N, C]. The fields run their layers on rows: XLA's CPU
+  matmul is about twice as fast on [N, C] x [C, D] as on a [R, S, C] input,
+  whose weight gradient contracts two axes."""
+  return x.reshape(-1, x.shape[-1])
+
+
+DENSITY_ACTIVATIONS = {"softplus": nn.softplus, "relu": nn.relu}
+
+
+def _density(h, noise_key, noise, bias, shape, activation="softplus"):
+  """The density head of a radiance field (call inside a compact module):
+  act(Dense(h) + noise + bias) for rows h [N, W] of points of `shape`
+  (N = prod(shape)); returns [N]. Noise only when a key (one, or per ray:
+  halo_jax.rng, drawn over `shape` so each ray draws its own) is given.
+  act: 'softplus' (smooth, never stuck at 0) or 'relu' (the original NeRF)."""
+  raw = nn.Dense(1, name="density")(h)[..., 0]
+  if noise_key is not None and noise > 0:
+    raw = raw + noise * rng.normal(noise_key, shape).reshape(raw.shape)
+  return DENSITY_ACTIVATIONS[activation](raw + bias)
+
+
+def band_weights(band_fraction, num_bands: int, dims: int):
+  """FreeNeRF's frequency mask over a P.E. of `num_bands` (L) bands of `dims`
+  coordinates ordered (band, dim).
+
+  With p = min(L * band_fraction + 1, L), band k has weight clip(p - k, 0, 1):
+  at fraction 0 only the lowest band is visible, bands open one after
+  another as the fraction grows, and all are open from fraction 1 - 1/L on.
+  Returns [L * dims]; band_fraction may be traced.
+  """
+  k = jnp.arange(num_bands, dtype=jnp.float32)
+  frac = jnp.asarray(band_fraction, jnp.float32)
+  p = jnp.minimum(num_bands * frac + 1.0, float(num_bands))
+  return jnp.repeat(jnp.clip(p - k, 0.0, 1.0), dims)
+
+
+def masked_positional_encoding(x, freqs, scale, band_fraction):
+  """positional_encoding(x) with FreeNeRF's mask on its sin and cos halves
+  (no mask when band_fraction is None)."""
+  pe = encoding.positional_encoding(x, freqs, scale)
+  if band_fraction is None:
+    return pe
+  w = band_weights(band_fraction, freqs, x.shape[-1])
+  # the input itself (the first D features) stays visible, as in FreeNeRF
+  return pe * jnp.concatenate([jnp.ones(x.shape[-1]), w, w])
+
+
+class MLP(nn.Module):
+  """ReLU MLP with the input concatenated back in after the `skips` layers."""
+  width: int = 256
+  depth: int = 8
+  skips: Sequence[int] = (4,)
+
+  @nn.compact
+  def __call__(self, x):
+    inputs = x
+    for i in range(self.depth):
+      if i in self.skips and i > 0:
+        x = jnp.concatenate([x, inputs], -1)
+      x = nn.relu(nn.Dense(self.width, name=f"dense_{i}")(x))
+    return x
+
+
+class NeRFMLP(nn.Module):
+  """Radiance field: point (and view direction) -> density and colour.
+
+  Attributes:
+    pos_freqs, pos_scale: L and s of the point encoding (Lo or Hi P.E.).
+    base_freqs, base_scale: when base_freqs > 0, a second (Lo) P.E. placed
+      before the first, so a Hi-NeRF can start as an exact copy of a Lo-NeRF
+      (see stages.transfer.transfer_from_lo).
+    width, depth, skips: trunk size.
+    use_viewdirs: condition colour on the view direction (Hi-NeRF); Lo-NeRF
+      leaves it out so its colour is view-independent.
+    dir_freqs: L of the direction encoding.
+    density_bias: act(raw + bias); -1 starts a softplus field nearly empty.
+    density_activation: 'softplus' or 'relu' (DENSITY_ACTIVATIONS).
+  """
+  pos_freqs: int = 10
+  pos_scale: float = 1.0
+  base_freqs: int = 0
+  base_scale: float = 1.0
+  width: int = 256
+  depth: int = 8
+  skips: Sequence[int] = (4,)
+  use_viewdirs: bool = True
+  dir_freqs: int = 4
+  density_bias: float = -1.0
+  density_activation: str = "softplus"
+
+  @nn.compact
+  def __call__(self, points, viewdirs=None, density_noise_key=None, density_noise=0.0,
+               band_fraction=None):
+    """Args: points [..., 3]; viewdirs [..., 3] unit or None; band_fraction:
+    FreeNeRF's mask position in [0, 1] over the point and direction
+    encodings (band_weights), or None for the full encodings.
+
+    Returns: sigma [...] >= 0 and rgb [..., 3] in (0, 1).
+    """
+    shape = points.shape[:-1]
+    points = _rows(points)
+    x = masked_positional_encoding(points, self.pos_freqs, self.pos_scale, band_fraction)
+    if self.base_freqs > 0:
+      x = jnp.concatenate(
+          [encoding.positional_encoding(points, self.base_freqs, self.base_scale), x], -1)
+    h = MLP(self.width, self.depth, tuple(self.skips), name="trunk")(x)
+    sigma = _density(h, density_noise_key, density_noise, self.density_bias, shape,
+                     self.density_activation)
+    if self.use_viewdirs:
+      feat = nn.Dense(self.width, name="bottleneck")(h)
+      viewdirs = _rows(jnp.broadcast_to(viewdirs, (*shape, viewdirs.shape[-1])))
+      d = masked_positional_encoding(viewdirs, self.dir_freqs, 1.0, band_fraction)
+      h = nn.relu(nn.Dense(self.width // 2, name="view")(jnp.concatenate([feat, d], -1)))
+    rgb = nn.sigmoid(nn.Dense(3, name="rgb")(h))
+    return sigma.reshape(shape), rgb.reshape(*shape, 3)
+
+
+class DeformNeRF(nn.Module):
+  """Dynamic radiance field (D-NeRF style): a deformation MLP maps a point at
+  time t to a canonical point, which a static NeRFMLP colours.
+
+  x' = x + D(gamma(x), gamma_t(t)), then sigma, rgb = NeRF(x'). D's output
+  layer starts at zero, so the field starts static. With base_freqs > 0 the
+  Lo encodings of x and t come first in D's input and in the canonical
+  NeRF's (as in NeRFMLP), so a Hi model can start as a copy of a Lo model.
+
+  Attributes:
+    time_freqs, time_scale: L and s of the time encoding (its own frequencies).
+    base_time_freqs, base_time_scale: the Lo time encoding, with base_freqs.
+    deform_width, deform_depth: size of the deformation MLP.
+    Others as in NeRFMLP.
+  """
+  pos_freqs: int = 10
+  pos_scale: float = 1.0
+  base_freqs: int = 0
+  base_scale: float = 1.0
+  time_freqs: int = 6
+  time_scale: float = 1.0
+  base_time_freqs: int = 0
+  base_time_scale: float = 1.0
+  width: int = 256
+  depth: int = 8
+  skips: Sequence[int] = (4,)
+  use_viewdirs: bool = True
+  dir_freqs: int = 4
+  density_bias: float = -1.0
+  deform_width: int = 128
+  deform_depth: int = 4
+  density_activation: str = "softplus"
+
+  @nn.compact
+  def __call__(self, points, viewdirs=None, density_noise_key=None, density_noise=0.0,
+               times=None):
+    """Args: points [..., 3]; viewdirs [..., 3] or None; times [..., 1] in [0, 1].
+
+    Returns: sigma [...] >= 0 and rgb [..., 3] in (0, 1).
+    """
+    if times is None:
+      raise ValueError("DeformNeRF needs times [..., 1] (a dynamic scene)")
+    shape = points.shape[:-1]
+    x, times = _rows(points), _rows(jnp.broadcast_to(times, (*shape, 1)))
+    feats = [encoding.positional_encoding(x, self.pos_freqs, self.pos_scale),
+             encoding.positional_encoding(times, self.time_freqs, self.time_scale)]
+    if self.base_freqs > 0:
+      feats = [encoding.positional_encoding(x, self.base_freqs, self.base_scale),
+               encoding.positional_encoding(times, self.base_time_freqs,
+                                            self.base_time_scale)] + feats
+    h = MLP(self.deform_width, self.deform_depth, (), name="deform")(jnp.concatenate(feats, -1))
+    offset = nn.Dense(3, kernel_init=nn.initializers.zeros, name="offset")(h).reshape(*shape, 3)
+    canonical = NeRFMLP(self.pos_freqs, self.pos_scale, self.base_freqs, self.base_scale,
+                        self.width, self.depth, tuple(self.skips), self.use_viewdirs,
+                        self.dir_freqs, self.density_bias, self.density_activation,
+                        name="canonical")
+    return canonical(points + offset, viewdirs, density_noise_key, density_noise)
+
+
+class EPINeRF(nn.Module):
+  """Radiance field of a two-plane light field in EPI coordinates (docs/light_fields.md).
+
+  Points are (s', t', theta): the image-plane position aligned to the central
+  view and the EPI angle; the view input is the camera-plane (u, v). Inputs
+  are encoded with Gaussian Fourier features: s', t' with std `st_std`,
+  theta with `theta_std`, u, v with `uv_std` (counts `*_features`, fixed
+  matrices from `seed`).
+  """
+  st_std: float = 5.09
+  st_features: int = 10
+  theta_std: float = 8.0
+  theta_features: int = 5
+  uv_std: float = 1.0
+  uv_features: int = 0
+  seed: int = 0
+  width: int = 256
+  depth: int = 8
+  skips: Sequence[int] = (4,)
+  density_bias: float = -1.0
+
+  @nn.compact
+  def __call__(self, points, viewdirs, density_noise_key=None, density_noise=0.0):
+    """Args: points [..., 3] (s', t', theta); viewdirs [..., 2] (u, v).
+
+    Returns: sigma [...] >= 0 and rgb [..., 3] in (0, 1).
+    """
+    shape = points.shape[:-1]
+    points, viewdirs = _rows(points), _rows(jnp.broadcast_to(viewdirs, (*shape, 2)))
+    x = jnp.concatenate([
+        encoding.gaussian_fourier_features(
+            points[..., :2], encoding.fourier_matrix(self.seed, 2, self.st_features, self.st_std)),
+        encoding.gaussian_fourier_features(
+            points[..., 2:], encoding.fourier_matrix(self.seed + 1, 1, self.theta_features,
+                                                     self.theta_std))], -1)
+    h = MLP(self.width, self.depth, tuple(self.skips), name="trunk")(x)
+    sigma = _density(h, density_noise_key, density_noise, self.density_bias, shape)
+    v = encoding.gaussian_fourier_features(
+        viewdirs, encoding.fourier_matrix(self.seed + 2, 2, self.uv_features, self.uv_std))
+    feat = nn.Dense(self.width, name="bottleneck")(h)
+    h = nn.relu(nn.Dense(self.width // 2, name="view")(jnp.concatenate([feat, v], -1)))
+    rgb = nn.sigmoid(nn.Dense(3, name="rgb")(h))
+    return sigma.reshape(shape), rgb.reshape(*shape, 3)
+
+
+def _nerf_kwargs(config, name):
+  cfg, m = config[name], config[name].model
+  base = config.lo.encoding if cfg.encoding.get("with_lo", False) else None
+  return base, dict(pos_freqs=cfg.encoding.L, pos_scale=cfg.encoding.scale,
+                    base_freqs=base.L if base else 0, base_scale=base.scale if base else 1.0,
+                    width=m.width, depth=m.depth, skips=tuple(m.skips),
+                    use_viewdirs=m.use_viewdirs, dir_freqs=m.dir_freqs,
+                    density_bias=m.density_bias,
+                    density_activation=m.get("density_activation", "softplus"))
+
+
+def _static_nerf(config, name):
+  return NeRFMLP(**_nerf_kwargs(config, name)[1])
+
+
+def _deform_nerf(config, name):
+  base, common = _nerf_kwargs(config, name)
+  cfg, m = config[name], config[name].model
+  return DeformNeRF(**common, time_freqs=cfg.encoding.time_L,
+                    time_scale=cfg.encoding.time_scale,
+                    base_time_freqs=base.time_L if base else 0,
+                    base_time_scale=base.time_scale if base else 1.0,
+                    deform_width=m.deform_width, deform_depth=m.deform_depth)
+
+
+def _epi_nerf(config, name):
+  cfg, m = config[name], config[name].model
+  f = cfg.fourier
+  return EPINeRF(st_std=f.st_std, st_features=f.st_features, theta_std=f.theta_std,
+                 theta_features=f.theta_features, uv_std=f.uv_std,
+                 uv_features=f.uv_features, seed=f.seed, width=m.width, depth=m.depth,
+                 skips=tuple(m.skips), density_bias=m.density_bias)
+
+
+@dataclasses.dataclass(frozen=True)
+class ModelSpec:
+  """A radiance-field kind (config `<stage>.model.kind`).
+
+  build: (config, stage name) -> Flax module.
+  dummy_inputs: the (points, view) arrays `init` is called with.
+  dynamic: the field takes a time input.
+  geometries: the ray geometries it can be rendered in.
+  """
+  build: Callable
+  dummy_inputs: Callable
+  dynamic: bool = False
+  geometries: frozenset = geometry.SPATIAL
+
+
+MODELS = registry.Registry[ModelSpec]("model")
+MODELS.register("nerf", ModelSpec(_static_nerf, lambda: (jnp.zeros((1, 3)), jnp.zeros((1, 3)))))
+MODELS.register("deform", ModelSpec(_deform_nerf,
+                                    lambda: (jnp.zeros((1, 3)), jnp.zeros((1, 3))), dynamic=True))
+MODELS.register("epi", ModelSpec(_epi_nerf, lambda: (jnp.zeros((1, 3)), jnp.zeros((1, 2))),
+                                 geometries=frozenset({geometry.Geometry.TWO_PLANE})))
+
+
+def nerf_from_config(config, name: str):
+  """The radiance field of stage `name` (config[name].model.kind in MODELS).
+
+  With config[name].encoding.with_lo, Lo-NeRF's P.E. (config.lo.encoding) is
+  prepended to the stage's own.
+  """
+  kind = config[name].model.get("kind", "nerf")
+  return MODELS.get(kind, f"{name}.model.kind").build(config, name)
+
+
+def init_nerf(model, kind: str, seed: int):
+  """Parameters of a radiance field of MODELS kind `kind` from PRNGKey(seed)."""
+  points, views = MODELS.get(kind).dummy_inputs()
+  extra = {"times": jnp.zeros((1, 1))} if MODELS.get(kind).dynamic else {}
+  return model.init(jax.random.PRNGKey(seed), points, views, **extra)["params"]
+
+
+def is_dynamic(config, name: str) -> bool:
+  """Whether stage `name`'s field takes time as an input."""
+  return MODELS.get(config[name].model.get("kind", "nerf"), f"{name}.model.kind").dynamic

@@ -1,0 +1,126 @@
+"""Runs a config's stages in the order their declared needs imply, handing
+each finished stage's immutable state to the stages that read it.
+
+A stage section of the config (one whose `kind` names a registered trainer)
+is trained by that trainer; the trainer says which finished stages it reads
+(`requires`). `config.stages` lists what to train now; a needed stage that is
+not in the list is restored from the workdir, where an earlier launch left
+it. Nothing here branches on a model, sampler, method or data kind.
+"""
+import contextlib
+import copy
+import json
+import os
+
+from halo_jax import datasets, parallel, provenance, stages, tuning, validate, workdir_lock
+from halo_jax.stages import base, loop
+from halo_jax.stages.order import needed, parse_stages, stage_names
+from halo_jax.stages.state import load, save, stage_dir
+from halo_jax.stages.workdir import check_workdir
+
+
+def with_budget(config):
+  """A copy of config whose stages' max_seconds split config.budget_s by share.
+
+  Shares are normalised over the stages the method's output stage
+  (config.final_stage) needs, so a launch of one stage gets the same time as
+  in a full run, and a one-stage baseline gets all of it.
+  """
+  config = copy.deepcopy(config)
+  if config.budget_s > 0:
+    names = needed(config, config.final_stage)
+    total = sum(config.budget_shares[n] for n in names)
+    for n in names:
+      config[n].max_seconds = config.budget_s * config.budget_shares[n] / total
+  return config
+
+
+def _budget_until(config) -> dict:
+  """{stage: seconds of the budget given to the method's stages up to and
+  including it} (with_budget's max_seconds, summed in order)."""
+  until, total = {}, 0.0
+  for n in needed(config, config.final_stage):
+    total += config[n].max_seconds
+    until[n] = total
+  return until
+
+
+def _info_path(workdir, name):
+  return os.path.join(stage_dir(workdir, name), "final", "info.json")
+
+
+def _restore(config, name, dataset, workdir):
+  """A finished stage's state and its info.json, from the workdir."""
+  like = base.trainer_of(config, name).params_like(config, name, dataset)
+  state = load(workdir, name, like)
+  with open(_info_path(workdir, name)) as f:
+    return state, json.load(f)
+
+
+def run(config, workdir: str, dataset=None) -> dict:
+  """Runs `config.stages` in `workdir`; returns {stage: info} for the stages run.
+
+  The config is validated before any work (halo_jax.validate), and the
+  workdir is locked for this process (workdir_lock: a second launch into it
+  is refused). info holds the stage's training seconds ('wall_s'), steps,
+  skipped steps and, for stages that render images, the held-out evaluation.
+  """
+  validate.validate(config)
+  # In a multi-process job the processes share the workdir; process 0 holds it.
+  held = workdir_lock.hold(workdir) if parallel.is_primary() else contextlib.nullcontext()
+  with held:
+    return _run(config, workdir, dataset)
+
+
+def _run(config, workdir, dataset):
+  check_workdir(config, workdir)
+  config = with_budget(config)
+  dataset = dataset or datasets.load(config.data, workdir)
+  run_now = parse_stages(config.stages, config)
+  if config.lo.encoding.get("auto", False) and "lo" in needed(config):
+    # The search's own training time is not part of this run's budget.
+    config.lo.encoding.L, config.lo.encoding.scale = tuning.chosen_encoding(
+        config, workdir, dataset, run)
+  log = loop.MetricsLog(workdir)
+  mesh = parallel.make_mesh(config.parallel)
+  states, infos, wall = {}, {}, 0.0
+  until = _budget_until(config)
+  for name in needed(config):
+    if name not in run_now:
+      states[name], info = _restore(config, name, dataset, workdir)
+      wall += info["wall_s"]
+      continue
+    if config.budget_s > 0:
+      # A stage that reached its step cap before its share of the budget
+      # leaves the rest to the next, so the method trains for budget_s.
+      config[name].max_seconds = max(config[name].max_seconds, until[name] - wall)
+    ctx = base.StageContext(config, name, dataset, workdir, dict(states), log, wall, mesh)
+    state, info = base.trainer_of(config, name).train(ctx)
+    wall += info["wall_s"]
+    info.update(step=int(state.step), cumulative_wall_s=wall)
+    save(workdir, state)
+    if parallel.is_primary():
+      info["provenance"] = provenance.collect()
+      with open(_info_path(workdir, name), "w") as f:
+        json.dump(info, f, indent=1)
+    states[name], infos[name] = state, info
+  return infos
+
+
+def _cell(value, fmt, width):
+  """A metric, or '-' where the stage has none (the ray field has no images)."""
+  return f"{'-':>{width}}" if value is None else f"{value:{width}{fmt}}"
+
+
+def table(infos) -> str:
+  """The stages' steps, training seconds and held-out metrics, one line each."""
+  lines = [f"{'stage':6} {'steps':>6} {'train s':>8} {'PSNR':>7} {'SSIM':>6} {'LPIPS':>6}"]
+  for name, info in infos.items():
+    ev = info.get("eval", {})
+    lines.append(f"{name:6} {info['step']:6d} {info['wall_s']:8.1f} "
+                 f"{_cell(ev.get('psnr'), '.2f', 7)} {_cell(ev.get('ssim'), '.3f', 6)} "
+                 f"{_cell(ev.get('lpips'), '.3f', 6)}")
+  return "\n".join(lines)
+
+
+__all__ = ["needed", "parse_stages", "run", "stage_names", "table", "with_budget", "stages"]

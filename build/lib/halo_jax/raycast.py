@@ -1,0 +1,212 @@
+"""Rendering a radiance field along rays: sampling, querying, compositing.
+
+Everything here is a pure function of parameters and rays; `render_chunked`
+is the only host-side loop (over fixed-size chunks of an image, padded so one
+compiled function serves every chunk). Models are passed in (any Flax module
+with the radiance-field call signature), never imported.
+"""
+import functools
+from typing import Any, NamedTuple, Optional
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from halo_jax import camera, render, rng, samplers
+from halo_jax.geometry import Geometry
+
+
+class Guide(NamedTuple):
+  """A ray field that places the samples of a guided sampler.
+
+  geometry: how rays enter the field: SPHERE where they cross the sphere of
+  `radius`; NDC as they are (they start on the near plane).
+  """
+  model: Any
+  params: Any
+  geometry: Geometry
+  radius: float = 0.0
+
+
+def ray_field_depth(guide: Guide, origins, dirs):
+  """Depth along each camera ray predicted by the ray field, and its opacity.
+
+  Args: origins, dirs [..., 3]. Returns depth [...] (camera t), acc [...].
+  """
+  if guide.geometry == Geometry.NDC:
+    return guide.model.apply({"params": guide.params}, origins, dirs)
+  if guide.geometry != Geometry.SPHERE:
+    raise ValueError(f"a 3D ray field cannot read {guide.geometry.value} rays")
+  t_entry, entry, _ = camera.sphere_entry(origins, dirs, guide.radius)
+  depth, acc = guide.model.apply({"params": guide.params}, entry, dirs)
+  return t_entry + depth, acc
+
+
+def sample_edges(sampler_cfg, key, shape, near, far, guide_depth=None, randomized=True,
+                 window=None):
+  """Interval edges [*shape, N + 1] for the first (or only) pass of a sampler.
+
+  window: the guided samplers' half window (a fraction of far - near; may be
+  traced); None uses sampler_cfg.window.
+  """
+  spec = samplers.SAMPLERS.get(sampler_cfg.kind, "sampler.kind")
+  near = jnp.full(shape, near, jnp.float32)
+  if spec.guided:
+    window = sampler_cfg.window if window is None else window
+    return samplers.depth_guided(key, guide_depth, near, far, sampler_cfg.num_samples, window,
+                                 sampler_cfg.near_only, randomized)
+  n = sampler_cfg.num_coarse if spec.importance else sampler_cfg.num_samples
+  return samplers.stratified(key, near, far, n, randomized)
+
+
+def composite(model, params, origins, dirs, t_edges, white_background, key=None, noise=0.0,
+              times=None, band_fraction=None):
+  """Queries the NeRF at interval midpoints and composites. Returns render's
+  dict plus 'sigma' [..., N], the densities.
+
+  times: [..., 1] per-ray time for a dynamic field (None for a static one).
+  band_fraction: FreeNeRF's P.E. mask position (models.band_weights), or None.
+  """
+  t_mid = render.interval_midpoints(t_edges)
+  pts = origins[..., None, :] + t_mid[..., None] * dirs[..., None, :]
+  vdirs = jnp.broadcast_to(dirs[..., None, :], pts.shape)
+  extra = {} if band_fraction is None else {"band_fraction": band_fraction}
+  if times is not None:
+    extra["times"] = times[..., None, :]
+  sigma, rgb = model.apply({"params": params}, pts, vdirs, key, noise, **extra)
+  out = render.volume_render(sigma, rgb, t_edges, white_background)
+  out["sigma"] = sigma
+  return out
+
+
+def render_rays(model, sampler_cfg, params, origins, dirs, key, *, near, far,
+                white_background, randomized, noise=0.0, guide: Optional[Guide] = None,
+                times=None, window=None, coarse_params=None, band_fraction=None):
+  """Renders rays with a NeRF stage's sampler.
+
+  Args:
+    model: a radiance field (models.NeRFMLP or alike); sampler_cfg: the
+      stage's `sampler` config.
+    params: model parameters.
+    coarse_params: a second field's parameters for the first pass of an
+      importance sampler (NeRF's coarse MLP); None: `params` serve both.
+    band_fraction: FreeNeRF's P.E. mask position passed to the field, or None.
+    origins, dirs: [R, 3] rays (dirs unit length).
+    key: PRNG key for jitter and density noise, or per-ray keys [R, 2].
+    near, far: scalar bounds.
+    randomized: jitter samples (training) or not (evaluation).
+    noise: density noise std (training only).
+    guide: ray field for sampler_cfg.kind == 'depth_guided'.
+    times: [R, 1] ray times for a dynamic field, else None.
+    window: the guided samplers' half window (None: sampler_cfg.window).
+
+  Returns:
+    list of render dicts, coarse first; the last is the final rendering.
+  """
+  spec = samplers.SAMPLERS.get(sampler_cfg.kind, "sampler.kind")
+  k_s, k_n, k_f, k_n2 = rng.split(key, 4)
+  shape = origins.shape[:-1]
+  guide_depth = None
+  if spec.guided:
+    guide_depth, _ = ray_field_depth(guide, origins, dirs)
+    guide_depth = jax.lax.stop_gradient(guide_depth)
+  t = sample_edges(sampler_cfg, k_s, shape, near, far, guide_depth, randomized, window)
+  first = params if coarse_params is None else coarse_params
+  out = [composite(model, first, origins, dirs, t, white_background, k_n, noise, times,
+                   band_fraction)]
+  if spec.importance:
+    t_fine = samplers.hierarchical(k_f, t, out[0]["weights"], sampler_cfg.num_samples,
+                                   randomized)
+    if spec.merge_coarse:
+      t_fine = samplers.merge_edges(jax.lax.stop_gradient(t), t_fine)
+    out.append(composite(model, params, origins, dirs, t_fine, white_background, k_n2, noise,
+                         times, band_fraction))
+  return out
+
+
+def render_chunked(fn, origins, dirs, chunk: int, times=None):
+  """Applies a jitted `fn(origins [C, 3], dirs [C, 3][, times [C, 1]]) -> dict of
+  [C, ...]` to any number of rays in fixed-size chunks; returns numpy arrays
+  [R, ...]. `times` [..., 1] (dynamic scenes) is passed when given."""
+  inputs = [np.asarray(origins).reshape(-1, 3), np.asarray(dirs).reshape(-1, 3)]
+  if times is not None:
+    inputs.append(np.asarray(times, np.float32).reshape(-1, 1))
+  n = inputs[0].shape[0]
+  pad = (-n) % chunk
+  inputs = [np.concatenate([x, np.repeat(x[-1:], pad, 0)]) for x in inputs]
+  outs = []
+  for i in range(0, n + pad, chunk):
+    outs.append(jax.device_get(fn(*(x[i:i + chunk] for x in inputs))))
+  merged = {k: np.concatenate([o[k] for o in outs])[:n] for k in outs[0]}
+  return {k: v.reshape(origins.shape[:-1] + v.shape[1:]) for k, v in merged.items()}
+
+
+def in_blocks(fn, block_rays: int, *rays):
+  """fn(*rays) computed over consecutive blocks of `block_rays` rays, one after
+  another (lax.map): on CPU a block's activations stay in cache, which is
+  several times faster than one pass over a large chunk. Each x in `rays` is
+  [R, ...] (None passes through; R is padded up to whole blocks by repeating
+  the last ray); fn returns a pytree of [block, ...]. block_rays 0 runs fn
+  once on everything.
+  """
+  n = rays[0].shape[0]
+  if not block_rays or block_rays >= n:
+    return fn(*rays)
+  present = [i for i, x in enumerate(rays) if x is not None]
+  num = -(-n // block_rays)
+  pad = num * block_rays - n
+
+  def blocks_of(x):
+    x = jnp.concatenate([x, jnp.repeat(x[-1:], pad, 0)]) if pad else x
+    return x.reshape(num, block_rays, *x.shape[1:])
+
+  def one(blocks):
+    args = list(rays)
+    for i, x in zip(present, blocks):
+      args[i] = x
+    return fn(*args)
+  out = jax.lax.map(one, tuple(blocks_of(rays[i]) for i in present))
+  return jax.tree_util.tree_map(lambda y: y.reshape(num * block_rays, *y.shape[2:])[:n], out)
+
+
+def make_eval_fn(model, sampler_cfg, *, near, far, white_background, guide_model=None,
+                 geometry=Geometry.SPHERE, radius=0.0, block_rays: int = 0):
+  """A jitted (params, guide_params, origins, dirs[, times, window,
+  coarse_params, band_fraction]) -> {rgb, depth, depth_max, acc} for held-out rendering;
+  compiled once and reused. block_rays: see in_blocks (config eval.block_rays)."""
+  @jax.jit
+  def fn(params, guide_params, o, d, times=None, window=None, coarse_params=None,
+         band_fraction=None):
+    guide = None
+    if guide_model is not None:
+      guide = Guide(guide_model, guide_params, geometry, radius)
+
+    def render_block(o, d, times):
+      out = render_rays(model, sampler_cfg, params, o, d, jax.random.PRNGKey(0), near=near,
+                        far=far, white_background=white_background, randomized=False,
+                        guide=guide, times=times, window=window,
+                        coarse_params=coarse_params, band_fraction=band_fraction)[-1]
+      return {"rgb": out["rgb"], "depth": render.normalized_depth(out["depth"], out["acc"]),
+              "depth_max": out["depth_max"], "acc": out["acc"]}
+    return in_blocks(render_block, block_rays, o, d, times)
+  return fn
+
+
+@functools.partial(jax.jit, static_argnames=("model", "num_samples", "near", "far",
+                                             "white_background", "target", "block_rays"))
+def lo_targets(model, params, origins, dirs, *, num_samples, near, far, white_background,
+               target="max_weight", times=None, block_rays=0):
+  """Frozen-field depth and opacity on rays (at `times` [R, 1] for a dynamic
+  field), for L_ray and L_empty. block_rays: see in_blocks.
+
+  Returns depth [R] (the max-weight sample, or the normalised expected depth)
+  and acc [R].
+  """
+  def targets(origins, dirs, times):
+    t = samplers.stratified(None, jnp.full(origins.shape[:-1], near), far, num_samples,
+                            randomized=False)
+    out = composite(model, params, origins, dirs, t, white_background, times=times)
+    depth = out["depth_max"] if target == "max_weight" else render.normalized_depth(
+        out["depth"], out["acc"])
+    return depth, out["acc"]
+  return in_blocks(targets, block_rays, origins, dirs, times)

@@ -1,0 +1,80 @@
+"""Volume rendering along rays (NeRF eq. 1), stable for stiff densities.
+
+`python -m halo_jax.render` renders a finished run along a camera path (colour,
+depth and opacity videos); see `halo_jax/render/__main__.py`.
+"""
+
+import jax.numpy as jnp
+
+# An infinite interval (t_edges ending in inf) is taken to be this long, NeRF's
+# stand-in for "to infinity": long enough that any density fills it.
+INFINITE_DELTA = 1e10
+
+
+def compute_weights(sigma, t_edges):
+  """Per-interval compositing weights.
+
+  w_k = T_k (1 - exp(-sigma_k delta_k)) with T_k = exp(-sum_{j<k} sigma_j delta_j).
+  Transmittance is an exponential of an exclusive cumulative sum, never a
+  product of (1 - alpha): the product underflows and loses all precision once
+  alpha rounds to 1, the sum does not.
+
+  Args:
+    sigma: [..., N] non-negative densities, one per interval.
+    t_edges: [..., N + 1] sorted interval edges along the ray; intervals may be
+      0 long, as long as 1e10, or infinite (an inf edge).
+
+  Returns:
+    weights [..., N], and transmittance after the last interval [...].
+  """
+  delta = interval_lengths(t_edges)
+  # sigma * delta can be 0 * inf-like; clamp so it never becomes NaN or inf.
+  optical_depth = jnp.clip(sigma * delta, 0.0, 1e30)
+  cum = jnp.cumsum(optical_depth, axis=-1)
+  excl = jnp.concatenate([jnp.zeros_like(cum[..., :1]), cum[..., :-1]], axis=-1)
+  trans = jnp.exp(-excl)
+  alpha = -jnp.expm1(-optical_depth)
+  return trans * alpha, jnp.exp(-cum[..., -1])
+
+
+def interval_lengths(t_edges):
+  """[..., N + 1] edges -> [..., N] lengths; an infinite one becomes INFINITE_DELTA."""
+  delta = jnp.diff(t_edges, axis=-1)
+  return jnp.where(jnp.isposinf(delta), INFINITE_DELTA, delta)
+
+
+def interval_midpoints(t_edges):
+  """[..., N + 1] edges -> [..., N] midpoints, finite for an infinite last interval."""
+  return t_edges[..., :-1] + 0.5 * interval_lengths(t_edges)
+
+
+def volume_render(sigma, rgb, t_edges, white_background: bool = True):
+  """Composites colours along rays.
+
+  Args:
+    sigma: [..., N] densities.
+    rgb: [..., N, 3] colours in [0, 1].
+    t_edges: [..., N + 1] interval edges (distances along unit-norm rays).
+    white_background: composite onto white, C + (1 - acc).
+
+  Returns:
+    dict with rgb [..., 3], depth [...] (expected, sum w t_mid; 0 where empty),
+    depth_max [...] (t_mid of the largest weight), acc [...] (opacity) and
+    weights [..., N].
+  """
+  weights, _ = compute_weights(sigma, t_edges)
+  t_mid = interval_midpoints(t_edges)
+  acc = weights.sum(-1)
+  color = (weights[..., None] * rgb).sum(-2)
+  if white_background:
+    color = color + (1.0 - acc[..., None])
+  depth = (weights * t_mid).sum(-1)
+  depth_max = jnp.take_along_axis(t_mid, jnp.argmax(weights, -1)[..., None], -1)[..., 0]
+  return {"rgb": color, "depth": depth, "depth_max": depth_max, "acc": acc,
+          "weights": weights}
+
+
+def normalized_depth(depth, acc, eps=1e-10):
+  """Expected depth of the visible part, sum w t / sum w, [...]; 0 where acc = 0."""
+  return jnp.where(acc > eps, depth / jnp.maximum(acc, eps), 0.0)
+

@@ -1,0 +1,68 @@
+"""A finished run, back from its workdir: config, data, stage states, renderer.
+
+Used by the evaluate and render commands, which work on any finished stage
+that makes images, of any scene kind, without retraining anything.
+"""
+import dataclasses
+import os
+from typing import Any, Callable, Dict, Optional
+
+from halo_jax import checkpoint, datasets
+from halo_jax.stages import base, order, state
+
+
+class NothingToRestore(ValueError):
+  """The workdir has no finished stage of the kind asked for."""
+
+
+@dataclasses.dataclass(frozen=True)
+class Restored:
+  workdir: str
+  config: Any                 # the stage's config, as it was trained
+  stage: str
+  dataset: Any
+  states: Dict[str, Any]      # the stage and every stage it reads, by name
+  render: Callable            # fn(o, d[, t]) -> {'rgb', 'depth', 'acc', ...}
+
+
+def finished(workdir: str, name: str) -> bool:
+  return os.path.exists(os.path.join(state.stage_dir(workdir, name), "final", "config.json"))
+
+
+def default_stage(workdir: str) -> Optional[str]:
+  """The run's output stage (its config's final_stage) if it finished, else
+  the last finished stage that makes images."""
+  path = os.path.join(workdir, "config.json")
+  if not os.path.exists(path):
+    return None
+  config = checkpoint.read_config(path)
+  names = [config.get("final_stage", "hi")] + list(reversed(order.stage_names(config)))
+  return next((n for n in names if finished(workdir, n)
+               and base.trainer_of(config, n).renderer is not None), None)
+
+
+def load(workdir: str, stage: Optional[str] = None, data_root: str = "") -> Restored:
+  """Restores `stage` (default: default_stage) of the run in `workdir`.
+
+  data_root replaces the config's data.root (for a run trained elsewhere).
+  Raises NothingToRestore naming the workdir and stage when there is none.
+  """
+  name = stage or default_stage(workdir)
+  if name is None or not finished(workdir, name):
+    raise NothingToRestore(f"{workdir}: no finished stage {stage or '(any that renders)'} "
+                           "to restore (train it first: python -m halo_jax.main ...)")
+  config = checkpoint.read_config(os.path.join(state.stage_dir(workdir, name), "final",
+                                               "config.json"))
+  trainer = base.trainer_of(config, name)
+  if trainer.renderer is None:
+    raise NothingToRestore(f"{workdir}: stage {name!r} ({config[name].kind}) makes no "
+                           "images; choose one that does (e.g. --stage=hi)")
+  if data_root:
+    config.data.root = data_root
+  dataset = datasets.load(config.data, workdir)
+  states = {}
+  for n in order.needed(config, name):
+    like = base.trainer_of(config, n).params_like(config, n, dataset)
+    states[n] = state.load(workdir, n, like)
+  return Restored(workdir, config, name, dataset, states,
+                  trainer.renderer(config, name, dataset, states))

@@ -1,0 +1,95 @@
+"""One method's training run on one scene, as a small result record.
+
+Shared by the compare command (halo_jax/compare.py) and
+experiments/benchmark.py: the record
+holds the held-out metrics (mean and per view), the held-out PSNR curve
+against training seconds, each stage's steps and seconds, and provenance.
+"""
+import importlib.util
+import json
+import os
+
+from halo_jax import config_files, pipeline, provenance
+
+
+def load_config(spec: str):
+  """'configs/blender.py:lego_8view_cpu' -> that ConfigDict (the path as
+  given, else the shipped config of that name: config_files.resolve)."""
+  path, _, variant = config_files.resolve(spec).partition(":")
+  if not os.path.exists(path):
+    raise FileNotFoundError(f"config file {spec.partition(':')[0]!r} not found")
+  module_spec = importlib.util.spec_from_file_location(
+      "halo_config_" + os.path.basename(path)[:-3], path)
+  module = importlib.util.module_from_spec(module_spec)
+  module_spec.loader.exec_module(module)
+  return module.get_config(variant) if variant else module.get_config()
+
+
+def set_field(config, dotted: str, value):
+  """config.<dotted> = value; KeyError naming the field when it does not exist."""
+  *parents, leaf = dotted.split(".")
+  node = config
+  for p in parents:
+    node = node[p]
+  if leaf not in node:
+    raise KeyError(f"config has no field {dotted!r}")
+  node[leaf] = value
+
+
+def read_curve(workdir):
+  """[[training seconds, held-out PSNR], ...] from a run's metrics.jsonl (the
+  last record of each stage and step, so a resumed run is not counted twice)."""
+  path = os.path.join(workdir, "metrics.jsonl")
+  if not os.path.exists(path):
+    return []
+  with open(path) as f:
+    recs = [json.loads(line) for line in f]
+  points = {}
+  for r in recs:
+    if r.get("heldout"):
+      points[(r.get("stage"), r.get("step"))] = [r["wall_s"], r["psnr"]]
+  return sorted(points.values())
+
+
+def run_method(config, workdir, dataset=None) -> dict:
+  """Trains `config` in `workdir` (resuming what is there) and returns its record."""
+  infos = pipeline.run(config, workdir, dataset)
+  last = infos[config.final_stage]["eval"]
+  rounded = {n: {k: round(v, 5) for k, v in m.items()} for n, m in last["per_view"].items()}
+  return {"psnr": last["psnr"], "ssim": last["ssim"], "lpips": last.get("lpips"),
+          **({"flicker": last["flicker"]} if "flicker" in last else {}),
+          "num_views": last["num_views"], "per_view": rounded,
+          "wall_s": sum(i["wall_s"] for i in infos.values()),
+          "stages": {n: {"wall_s": i["wall_s"], "step": i["step"],
+                         "skipped": i.get("skipped", 0),
+                         **({"psnr": i["eval"]["psnr"]} if "eval" in i else {})}
+                     for n, i in infos.items()},
+          "curve": read_curve(workdir),
+          "provenance": provenance.collect()}
+
+
+def seconds_to_reach(records, level):
+  """Mean over `records` (seeds) of the first curve time at which held-out
+  PSNR >= level; None if some record never reaches it."""
+  times = []
+  for r in records:
+    hit = [t for t, p in r["curve"] if p >= level]
+    if not hit:
+      return None
+    times.append(hit[0])
+  return sum(times) / len(times)
+
+
+def common_level(records, margin_db=0.5, of="min"):
+  """The PSNR a 'seconds to reach' column uses: the lowest ('min': every record
+  reaches it) or the median ('median': half do, so that a method that fails is
+  not the yardstick) of the records' curve peaks, less margin_db; None
+  without curves."""
+  peaks = sorted(max(p for _, p in r["curve"]) for r in records if r["curve"])
+  if not peaks:
+    return None
+  if of == "min":
+    return peaks[0] - margin_db
+  mid = len(peaks) // 2
+  median = peaks[mid] if len(peaks) % 2 else 0.5 * (peaks[mid - 1] + peaks[mid])
+  return median - margin_db

@@ -1,0 +1,173 @@
+"""Where to put samples along a ray: stratified, hierarchical, depth-guided.
+
+Every sampler returns sorted interval edges `t_edges` [..., N + 1]; the model
+is queried at the midpoints and `render.volume_render` composites the N
+intervals.
+"""
+import dataclasses
+
+import jax
+import jax.numpy as jnp
+
+from halo_jax import geometry, registry, rng
+
+
+@dataclasses.dataclass(frozen=True)
+class SamplerSpec:
+  """What a sampler kind (config `sampler.kind`) does and needs.
+
+  Attributes:
+    guided: samples fill a window around a ray field's depth.
+    importance: a second pass resamples the first pass's weights (inverse CDF).
+    merge_coarse: the second pass composites its samples together with the
+      first pass's (the original NeRF), not alone.
+    needs: stages whose finished states the sampler reads (a frozen ray
+      field; Lo-NeRF targets for a ray field trained alongside).
+    trains_guide: the ray field that guides it trains in the same stage.
+    geometries: the ray geometries it supports.
+    dynamic: whether it works on a time-dependent field.
+  """
+  guided: bool = False
+  importance: bool = False
+  merge_coarse: bool = False
+  needs: tuple = ()
+  trains_guide: bool = False
+  geometries: frozenset = geometry.ALL
+  dynamic: bool = True
+
+
+SAMPLERS = registry.Registry[SamplerSpec]("sampler")
+SAMPLERS.register("stratified", SamplerSpec())
+SAMPLERS.register("hierarchical", SamplerSpec(importance=True, geometries=geometry.SPATIAL))
+# NeRF's coarse + fine: the fine pass composites coarse and fine samples together.
+SAMPLERS.register("coarse_fine", SamplerSpec(importance=True, merge_coarse=True,
+                                             geometries=geometry.SPATIAL))
+SAMPLERS.register("depth_guided", SamplerSpec(guided=True, needs=("ray",),
+                                              geometries=geometry.SPATIAL, dynamic=False))
+# A ray field trained with the stage: in 3D it follows Lo-NeRF's depth; on a
+# light field, the radiance field's own.
+SAMPLERS.register("joint", SamplerSpec(guided=True, trains_guide=True, dynamic=False))
+
+
+def stratified(key, near, far, num_samples: int, randomized: bool = True):
+  """N intervals of equal length in [near, far], jittered as one when training.
+
+  Edges are jittered by one shared uniform offset per interval edge (NeRF's
+  stratified sampling); the first and last edge stay at near and far.
+
+  Args:
+    key: PRNG key, or per-ray keys [R, 2] (see halo_jax.rng); unused when
+      randomized is False.
+    near, far: [...] bounds per ray (or scalars broadcast to the batch).
+    num_samples: N.
+    randomized: jitter the interior edges.
+
+  Returns:
+    t_edges [..., N + 1], sorted, with t_edges[..., 0] = near, [..., -1] = far.
+  """
+  near = jnp.asarray(near, jnp.float32)
+  far = jnp.asarray(far, jnp.float32)
+  shape = jnp.broadcast_shapes(near.shape, far.shape)
+  u = jnp.linspace(0.0, 1.0, num_samples + 1)
+  u = jnp.broadcast_to(u, shape + (num_samples + 1,))
+  if randomized:
+    jitter = rng.uniform(key, shape + (num_samples - 1,), minval=-0.5, maxval=0.5)
+    interior = u[..., 1:-1] + jitter / num_samples
+    u = jnp.concatenate([u[..., :1], interior, u[..., -1:]], axis=-1)
+  return near[..., None] + (far - near)[..., None] * u
+
+
+def depth_window(depth, near, far, radius: float, near_only: bool = False):
+  """The interval the depth-guided sampler fills, DONeRF-style.
+
+  [max(near, d - r (far - near)), min(far, d + r (far - near))]. `near_only`
+  keeps far as the upper bound (the authors' variant). A depth outside
+  [near, far] is clipped into it first; a NaN depth gives the whole [near, far].
+
+  Args:
+    depth: [...] predicted depth.
+    near, far: scalars or [...].
+    radius: r, as a fraction of far - near.
+    near_only: tighten only the near side.
+
+  Returns:
+    (lo, hi), each [...].
+  """
+  near = jnp.asarray(near, jnp.float32)
+  far = jnp.asarray(far, jnp.float32)
+  finite = jnp.isfinite(depth)
+  d = jnp.clip(jnp.where(finite, depth, near), near, far)
+  half = radius * (far - near)
+  lo = jnp.where(finite, jnp.maximum(near, d - half), near)
+  hi = far if near_only else jnp.where(finite, jnp.minimum(far, d + half), far)
+  lo, hi = jnp.broadcast_arrays(lo, hi)
+  return lo, hi
+
+
+def depth_guided(key, depth, near, far, num_samples: int, radius: float,
+                 near_only: bool = False, randomized: bool = True):
+  """Stratified samples inside `depth_window`; returns t_edges [..., N + 1]."""
+  lo, hi = depth_window(depth, near, far, radius, near_only)
+  return stratified(key, lo, hi, num_samples, randomized)
+
+
+def with_full_range(key, window_edges, near, far, num_full: int, randomized: bool = True):
+  """Window samples plus `num_full` stratified intervals over all of [near, far].
+
+  The union of both sets of edges, sorted: N + num_full + 1 intervals that
+  tile [near, far], dense inside the window and coarse outside it, so the
+  field can still put density anywhere on the ray (the authors' light-field
+  sampler draws half its samples so).
+
+  Args:
+    key: PRNG key for the full-range samples (per-ray keys [R, 2] allowed).
+    window_edges: [..., N + 1] sorted edges inside [near, far].
+    near, far: [...] bounds (or scalars).
+    num_full: intervals over the whole range (0: window_edges unchanged).
+
+  Returns:
+    t_edges [..., N + num_full + 1], sorted, from near to far.
+  """
+  if num_full <= 0:
+    return window_edges
+  full = stratified(key, jnp.broadcast_to(jnp.asarray(near, jnp.float32),
+                                          window_edges.shape[:-1]),
+                    far, num_full, randomized)
+  return jnp.sort(jnp.concatenate([full, window_edges], -1), axis=-1)
+
+
+def merge_edges(a, b):
+  """The union of two sorted edge sets over the same range: [..., Na + Nb]
+  sorted edges (NeRF's fine pass over its coarse and fine samples)."""
+  return jnp.sort(jnp.concatenate([a, b], -1), axis=-1)
+
+
+def hierarchical(key, t_edges, weights, num_samples: int, randomized: bool = True,
+                 eps: float = 1e-5):
+  """Inverse-CDF resampling of a piecewise-constant weight distribution (NeRF).
+
+  Args:
+    key: PRNG key.
+    t_edges: [..., M + 1] edges of the coarse intervals.
+    weights: [..., M] coarse weights (need not sum to 1).
+    num_samples: N, new intervals.
+    randomized: uniform u instead of evenly spaced u.
+    eps: weight floor so a ray with all-zero weights falls back to uniform.
+
+  Returns:
+    t_edges [..., N + 1] drawn from the distribution, sorted, inside the
+    coarse range.
+  """
+  weights = jax.lax.stop_gradient(weights) + eps
+  pdf = weights / weights.sum(-1, keepdims=True)
+  cdf = jnp.concatenate([jnp.zeros_like(pdf[..., :1]),
+                         jnp.minimum(1.0, jnp.cumsum(pdf, -1))], -1)
+  cdf = cdf.at[..., -1].set(1.0)
+  shape = weights.shape[:-1] + (num_samples + 1,)
+  if randomized:
+    u = jnp.sort(rng.uniform(key, shape), axis=-1)
+  else:
+    u = jnp.broadcast_to(jnp.linspace(0.0, 1.0, num_samples + 1), shape)
+  interp = jnp.vectorize(jnp.interp, signature="(n),(m),(m)->(n)")
+  t = interp(u, cdf, jax.lax.stop_gradient(t_edges))
+  return jnp.sort(t, axis=-1)

@@ -1,0 +1,53 @@
+"""The stage-trainer interface and its registry.
+
+A stage config names its trainer in `kind`; the trainer says which finished
+stages it reads (`requires`), which ray geometries it supports, how to build
+parameters shaped like its output (to restore a finished stage), and how to
+train. The pipeline (stages/pipeline.py) only ever talks to this interface.
+"""
+import dataclasses
+from typing import Any, Callable, Dict, Optional
+
+from halo_jax import geometry, registry
+
+
+@dataclasses.dataclass(frozen=True)
+class StageContext:
+  """Everything a trainer gets: the run config, the stage's name, the data,
+  the workdir, finished stages' states by name, the metrics log, training
+  seconds spent by earlier stages, and the data-parallel mesh (or None)."""
+  config: Any
+  name: str
+  dataset: Any
+  workdir: str
+  states: Dict[str, Any]
+  log: Any = None
+  wall_offset: float = 0.0
+  mesh: Optional[Any] = None
+
+  @property
+  def cfg(self):
+    return self.config[self.name]
+
+
+@dataclasses.dataclass(frozen=True)
+class Trainer:
+  """requires(config, name) -> stage names it reads; params_like(config, name,
+  dataset) -> a parameter pytree of its output's shape; train(StageContext)
+  -> (StageState, info); check(config, name, dataset_spec) raises ConfigError
+  for combinations it cannot train (run before any work); renderer(config,
+  name, dataset, states) -> fn(o, d[, t]) -> {'rgb', 'depth', 'acc', ...} of
+  the finished stage states[name] (None for stages that make no images)."""
+  requires: Callable
+  params_like: Callable
+  train: Callable
+  check: Callable
+  geometries: frozenset = geometry.ALL
+  renderer: Optional[Callable] = None
+
+
+TRAINERS = registry.Registry[Trainer]("stage trainer")
+
+
+def trainer_of(config, name: str) -> Trainer:
+  return TRAINERS.get(config[name].get("kind", ""), f"{name}.kind")

@@ -1,0 +1,59 @@
+"""Drawing a step's training rays on device, shared by every trainer.
+
+Indices into the flat training rays are drawn uniformly over all pixels of
+all views, or (`one_image`) over the pixels of one random view per step, as
+the original NeRF does; for the first `precrop_steps` steps only from the
+centre crop.
+"""
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+
+def crop_pixels(height: int, width: int, frac: float) -> np.ndarray:
+  """Flat pixel indices [P] of the centre crop covering `frac` of each side."""
+  dh, dw = int(height * frac / 2), int(width * frac / 2)
+  mask = np.zeros((height, width), bool)
+  mask[height // 2 - dh:height // 2 + dh, width // 2 - dw:width // 2 + dw] = True
+  return np.flatnonzero(mask.reshape(-1)).astype(np.int32)
+
+
+def index_data(num_views: int, height: int, width: int, precrop_frac: float) -> dict:
+  """The arrays `draw` reads: crop_idx [Rc] over all views, crop_pix [P] in
+  one view, and the view size."""
+  pix = crop_pixels(height, width, precrop_frac)
+  per_view = height * width
+  crop_idx = (np.arange(num_views, dtype=np.int32)[:, None] * per_view + pix[None]).reshape(-1)
+  return {"crop_idx": crop_idx, "crop_pix": pix,
+          "view_pixels": np.full((), per_view, np.int32)}
+
+
+def draw(k_idx, k_crop, step, num_rays: int, batch: int, index, precrop_steps: int,
+         one_image: bool = False):
+  """Indices [batch] into the flat training rays.
+
+  Args:
+    k_idx, k_crop: PRNG keys (pixels, crop pixels).
+    step: the training step (traced).
+    num_rays: training rays in all (static).
+    batch: rays per step.
+    index: index_data's arrays (on device; unused, may be None, without
+      precrop_steps and one_image).
+    precrop_steps: steps drawn from the centre crop only (0: none).
+    one_image: draw the step's rays from one random view.
+  """
+  if precrop_steps <= 0 and not one_image:
+    return jax.random.randint(k_idx, (batch,), 0, num_rays)
+  if one_image:
+    per_view = index["view_pixels"]
+    view = jax.random.randint(jax.random.fold_in(k_idx, 1), (), 0, num_rays // per_view)
+    idx = view * per_view + jax.random.randint(k_idx, (batch,), 0, per_view)
+    pix = index["crop_pix"]
+    idx_crop = view * per_view + pix[jax.random.randint(k_crop, (batch,), 0, pix.shape[0])]
+  else:
+    idx = jax.random.randint(k_idx, (batch,), 0, num_rays)
+    crop = index["crop_idx"]
+    idx_crop = crop[jax.random.randint(k_crop, (batch,), 0, crop.shape[0])]
+  if precrop_steps > 0:
+    idx = jnp.where(step < precrop_steps, idx_crop, idx)
+  return idx

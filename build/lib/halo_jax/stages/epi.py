@@ -1,0 +1,326 @@
+"""The radiance-field stage for two-plane light fields (docs/light_fields.md).
+
+The field is an EPINeRF over (s', t', theta); every ray is rendered over the
+angle range [theta_n, theta_f], parameterised by tau in [0, 1].
+- sampler.kind='stratified': samples over the whole range (the NeRF baseline).
+- sampler.kind='joint' (HALO): a low-frequency EPIRayField, trained in the
+  same step, predicts tau_ray for each ray; the samples fill
+  tau_ray +- alpha, alpha falling from 1 to joint.alpha_final, and the ray
+  field follows the radiance field's expected tau through
+  L_consist = |tau_ray - tau_nerf|^2 (tau_nerf held fixed in that loss).
+  Options from the authors' code and the paper, off by default
+  (docs/light_fields.md, findings 16-20): random rays between the cameras, a colour
+  head on the ray field, and L_consist into the radiance field as well.
+With `random_background`, training rays are composited onto a random colour
+(either sampler), so every ray must end in something opaque.
+"""
+import functools
+import os
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+from halo_jax import (evaluate, geometry, lightfield, losses, metrics, models, parallel,
+                      ray_fields, raycast, registry, render, rng, samplers)
+from halo_jax.stages import base, batches, loop, terms
+from halo_jax.stages.radiance import joint_window
+from halo_jax.stages.state import StageState, stage_dir
+
+SAMPLER_KINDS = ("stratified", "joint")
+
+
+def requires(config, name):
+  return ()
+
+
+def check(config, name, dspec):
+  cfg = config[name]
+  registry.check(cfg.sampler.kind in SAMPLER_KINDS,
+                 f"{name}.sampler.kind={cfg.sampler.kind!r}: light fields use one of "
+                 f"{list(SAMPLER_KINDS)}")
+  registry.check(cfg.model.get("kind") == "epi",
+                 f"{name}.model.kind={cfg.model.get('kind')!r}: the light-field stage "
+                 "renders an 'epi' field")
+  terms.check_geometries(cfg, name, dspec, f"data.kind={config.data.kind!r} "
+                         f"({dspec.geometry.value} rays)")
+  # The EPI field's Fourier features have no ordered bands to open one by one.
+  registry.check(cfg.get("freq_reg", {}).get("end", 0.0) == 0.0,
+                 f"{name}.freq_reg.end={cfg.freq_reg.end!r}: the light-field stage has no "
+                 "P.E. bands to schedule (FreeNeRF's mask); set it to 0")
+
+
+def init_params(model, ray_model, seed):
+  """{'nerf': ...} plus {'ray': ...} for the joint sampler."""
+  k_nerf, k_ray = jax.random.split(jax.random.PRNGKey(seed))
+  params = {"nerf": model.init(k_nerf, jnp.zeros((1, 3)), jnp.zeros((1, 2)))["params"]}
+  if ray_model is not None:
+    params["ray"] = ray_model.init(k_ray, jnp.zeros((1, 4)))["params"]
+  return params
+
+
+def models_from_config(config, name):
+  cfg = config[name]
+  joint = cfg.sampler.kind == "joint"
+  ray_model = ray_fields.epi_ray_field_from_config(cfg.joint) if joint else None
+  return models.nerf_from_config(config, name), ray_model
+
+
+def render_rays(model, ray_model, cfg, params, uv, st, key, alpha, *, theta_n, theta_f,
+                randomized, noise=0.0):
+  """Renders two-plane rays.
+
+  Args:
+    model, ray_model: EPINeRF and EPIRayField (None unless sampler 'joint').
+    cfg: the stage config (sampler, joint).
+    params: {'nerf'[, 'ray']}.
+    uv, st: [R, 2] rays.
+    key: PRNG key; alpha: the joint window scale (scalar).
+    theta_n, theta_f: the angle range.
+    randomized: jitter samples; noise: density noise std.
+
+  Returns:
+    render dict (rgb, depth = expected tau, acc, weights, ...) plus tau_ray
+    [R] for the joint sampler and rgb_ray [R, 3] where the ray field has a
+    colour head (else None).
+  """
+  k_s, k_n = rng.split(key, 2)
+  n = cfg.sampler.num_samples
+  zeros = jnp.zeros(uv.shape[:-1], jnp.float32)
+  tau_ray = rgb_ray = None
+  if cfg.sampler.kind == "joint":
+    tau_ray = ray_model.apply({"params": params["ray"]}, jnp.concatenate([uv, st], -1))
+    if ray_model.color:
+      tau_ray, rgb_ray = tau_ray
+    # full_range of the N samples spread over the whole range, the rest
+    # (less the one interval the union adds) in the window.
+    n_full = int(round(cfg.joint.full_range * n))
+    n_win, k_f = n, None
+    if n_full > 0:
+      n_win = n - n_full - 1
+      if n_win < 1:
+        raise ValueError(f"joint.full_range={cfg.joint.full_range} leaves no window samples "
+                         f"of sampler.num_samples={n}")
+      k_s, k_f = rng.split(k_s, 2)
+    edges = samplers.depth_guided(k_s, jax.lax.stop_gradient(tau_ray), zeros, 1.0, n_win,
+                                  alpha, randomized=randomized)
+    edges = samplers.with_full_range(k_f, edges, zeros, 1.0, n_full, randomized)
+  elif cfg.sampler.kind == "stratified":
+    edges = samplers.stratified(k_s, zeros, 1.0, n, randomized)
+  else:
+    raise ValueError(f"sampler.kind={cfg.sampler.kind!r}: light fields use 'stratified' "
+                     "or 'joint'")
+  tau_mid = render.interval_midpoints(edges)
+  theta = lightfield.theta_of_tau(tau_mid, theta_n, theta_f)
+  pts = lightfield.epi_points(uv[..., None, :], st[..., None, :], theta)
+  views = jnp.broadcast_to(uv[..., None, :], (*pts.shape[:-1], 2))
+  sigma, rgb = model.apply({"params": params["nerf"]}, pts, views, k_n, noise)
+  out = render.volume_render(sigma, rgb, edges, white_background=False)
+  out["tau_ray"], out["rgb_ray"] = tau_ray, rgb_ray
+  return out
+
+
+def consist_target(out, target: str):
+  """tau_nerf [R]: the radiance field's expected tau, or the tau of its
+  largest weight (the mode, which a diffuse density does not pull towards the
+  window's centre)."""
+  if target == "expected":
+    return render.normalized_depth(out["depth"], out["acc"])
+  if target == "max_weight":
+    return out["depth_max"]
+  raise ValueError(f"joint.target={target!r}: use 'expected' or 'max_weight'")
+
+
+def consist_loss(out, target: str):
+  """L_consist over a render's rays with tau_nerf held fixed, so it trains
+  the ray field only."""
+  tau_nerf = jax.lax.stop_gradient(consist_target(out, target))
+  return losses.consistency(out["tau_ray"], tau_nerf)
+
+
+def with_random_background(rgb, acc, keys):
+  """rgb [R, 3] composited onto a uniform random colour per ray (from the
+  per-ray keys [R, 2]): rgb + u (1 - acc). A ray left partly transparent
+  then renders noise, so every training ray must end in something opaque
+  (the authors' light-field code does this; the scenes fill every pixel)."""
+  u = rng.uniform(jax.vmap(lambda k: jax.random.fold_in(k, 2))(keys), rgb.shape)
+  return rgb + u * (1.0 - acc[..., None])
+
+
+def loss_fn(params, data, key, step, part=None, *, model, ray_model, cfg, theta_n, theta_f,
+            mesh=None):
+  """L_rec plus the stage's active loss terms (terms.TERMS: the light-field
+  ones below) on the batch, or on its `part` (loop.part_of)."""
+  k_idx, k_ren = jax.random.split(key)
+  idx = batches.draw(k_idx, None, step, data["rgb"].shape[0], cfg.batch_rays, None, 0)
+  keys = jax.random.split(k_ren, cfg.batch_rays)  # per ray: parts draw as the whole
+  idx, keys = loop.part_of(idx, part), loop.part_of(keys, part)
+  idx = parallel.shard_batch(idx, mesh)
+  window = joint_window(cfg, step)
+  out = render_rays(model, ray_model, cfg, params, data["uv"][idx], data["st"][idx], keys,
+                    window, theta_n=theta_n, theta_f=theta_f, randomized=True,
+                    noise=cfg.density_noise)
+  if cfg.random_background:
+    out = dict(out, rgb=with_random_background(out["rgb"], out["acc"], keys))
+  # fold_in leaves the training rays' keys as they are whatever the terms draw
+  x = terms.Inputs(params, model, [out], {"rgb": data["rgb"][idx], "idx": idx}, data,
+                   (jax.random.fold_in(key, 1),), part, mesh, theta_n, theta_f, False, None,
+                   {"ray_model": ray_model, "window": window, "step": step})
+  loss, aux = terms.total(cfg, step, x, terms.active_terms(cfg))
+  if out["tau_ray"] is not None:
+    aux["alpha"] = window
+  return loss, aux
+
+
+def _joint(cfg):
+  return cfg.kind == "light_field" and cfg.sampler.kind == "joint"
+
+
+def _consist_value(x, cfg):
+  value = consist_loss(x.outs[0], cfg.joint.target)
+  return value, {"consist": value}
+
+
+def _pull_value(x, cfg):
+  # the other half of the paper's L_consist, which the authors' code
+  # detaches: the radiance field's tau pulled towards the ray field's
+  out = x.outs[0]
+  value = losses.consistency(jax.lax.stop_gradient(out["tau_ray"]),
+                             consist_target(out, cfg.joint.target))
+  return value, {}
+
+
+def _color_value(x, cfg):
+  # the ray field's colour head on the pixels (the authors' nelf_rec_loss)
+  value = losses.reconstruction(x.outs[0]["rgb_ray"], x.batch["rgb"])
+  return value, {"ray_psnr": metrics.mse_to_psnr(value)}
+
+
+def _random_value(x, cfg):
+  random, color = _random_ray_consist(x.params, x.data["uv_box"], x.keys[0], x.extra["step"],
+                                      x.part, model=x.model, ray_model=x.extra["ray_model"],
+                                      cfg=cfg, theta_n=x.near, theta_f=x.far, mesh=x.mesh)
+  value, aux = cfg.joint.consist_weight * random, {"consist_random": random}
+  if color is not None:
+    value = value + cfg.joint.color_weight * color
+    aux["color_random"] = color
+  return value, aux
+
+
+_TWO_PLANE = frozenset({geometry.Geometry.TWO_PLANE})
+terms.TERMS.register("lf_consist", terms.Term(
+    active=_joint, weight=lambda cfg, step: cfg.joint.consist_weight, value=_consist_value,
+    geometries=_TWO_PLANE))
+terms.TERMS.register("lf_nerf_consist", terms.Term(
+    active=lambda cfg: _joint(cfg) and cfg.joint.nerf_consist_weight > 0,
+    weight=lambda cfg, step: cfg.joint.nerf_consist_weight, value=_pull_value,
+    geometries=_TWO_PLANE))
+terms.TERMS.register("lf_color", terms.Term(
+    active=lambda cfg: _joint(cfg) and cfg.joint.color_weight > 0,
+    weight=lambda cfg, step: cfg.joint.color_weight, value=_color_value, geometries=_TWO_PLANE))
+# L_consist (and the colour head's loss) on random rays between the cameras;
+# its value carries the two weights itself, so its own weight is 1.
+terms.TERMS.register("lf_random", terms.Term(
+    active=lambda cfg: _joint(cfg) and cfg.joint.random_rays > 0,
+    weight=lambda cfg, step: 1.0, value=_random_value, geometries=_TWO_PLANE))
+
+
+def _random_ray_consist(params, uv_box, key, step, part, *, model, ray_model, cfg, theta_n,
+                        theta_f, mesh=None):
+  """L_consist on joint.random_rays rays between the training cameras.
+
+  uv uniform in the training cameras' box uv_box [2 (min, max), 2], st
+  uniform in [-1, 1]. The radiance field is rendered with the current window
+  but held fixed (stop_gradient): only the ray field learns here, following
+  the radiance field at views no camera saw, where held-out views lie. With
+  a colour head the ray field's colour also follows the radiance field's.
+
+  Returns the mean squared tau difference and the ray field's mean squared
+  colour difference (None without a colour head), scalars.
+  """
+  n = cfg.joint.random_rays
+  k_uv, k_st, k_ren = jax.random.split(key, 3)
+  uv = jax.random.uniform(k_uv, (n, 2), minval=uv_box[0], maxval=uv_box[1])
+  st = jax.random.uniform(k_st, (n, 2), minval=-1.0, maxval=1.0)
+  keys = jax.random.split(k_ren, n)
+  uv, st, keys = (parallel.shard_batch(loop.part_of(x, part), mesh) for x in (uv, st, keys))
+  frozen = dict(params, nerf=jax.lax.stop_gradient(params["nerf"]))
+  out = render_rays(model, ray_model, cfg, frozen, uv, st, keys, joint_window(cfg, step),
+                    theta_n=theta_n, theta_f=theta_f, randomized=True)
+  consist = consist_loss(out, cfg.joint.target)
+  if out["rgb_ray"] is None:
+    return consist, None
+  # out["rgb"] carries no gradient: the radiance field is frozen above
+  return consist, losses.reconstruction(out["rgb_ray"], out["rgb"])
+
+
+def training_rays(views):
+  """Flat training rays: uv, st [R, 2], rgb [R, 3], and the box of the
+  cameras' uv, uv_box [2 (min, max), 2] (numpy)."""
+  o, d = views.rays()
+  uv = o[..., :2].reshape(-1, 2)
+  return {"uv": uv, "st": d[..., :2].reshape(-1, 2), "rgb": views.images.reshape(-1, 3),
+          "uv_box": np.stack([uv.min(0), uv.max(0)])}
+
+
+def make_eval_fn(model, ray_model, cfg, theta_n, theta_f, block_rays=0):
+  """Jitted (params, alpha, origins, dirs) -> {rgb, depth (expected tau), acc};
+  origins (u, v, 0) and dirs (s, t, 1) as LightFieldViews.rays() gives them.
+  block_rays: see field.in_blocks."""
+  @jax.jit
+  def fn(params, alpha, o, d):
+    def render_block(o, d):
+      out = render_rays(model, ray_model, cfg, params, o[..., :2], d[..., :2],
+                        jax.random.PRNGKey(0), alpha, theta_n=theta_n, theta_f=theta_f,
+                        randomized=False)
+      return {"rgb": out["rgb"], "depth": render.normalized_depth(out["depth"], out["acc"]),
+              "acc": out["acc"]}
+    return raycast.in_blocks(render_block, block_rays, o, d)
+  return fn
+
+
+def train(ctx: base.StageContext):
+  """Trains the light-field stage ctx.name; returns (StageState, info)."""
+  config, name, dataset, cfg = ctx.config, ctx.name, ctx.dataset, ctx.cfg
+  loop.check_parts(cfg, cfg.batch_rays, f"{name}.batch_rays", ctx.mesh)
+  if cfg.sampler.kind == "joint" and cfg.joint.random_rays > 0:
+    loop.check_parts(cfg, cfg.joint.random_rays, f"{name}.joint.random_rays", ctx.mesh)
+  model, ray_model = models_from_config(config, name)
+  theta_n, theta_f = dataset.near, dataset.far
+  data = jax.device_put(training_rays(dataset.train))
+  step_loss = functools.partial(loss_fn, model=model, ray_model=ray_model, cfg=cfg,
+                                theta_n=theta_n, theta_f=theta_f, mesh=ctx.mesh)
+  render_eval = make_eval_fn(model, ray_model, cfg, theta_n, theta_f, config.eval.block_rays)
+
+  def eval_fn(params, step):
+    # the joint sampler renders with the window it trains with at this step
+    fn = functools.partial(render_eval, params, joint_window(cfg, step))
+    return evaluate.heldout(fn, dataset.test, config.eval.chunk, config.eval.curve_views)
+
+  params, step, info = loop.train(name, cfg, ctx.workdir,
+                                  init_params(model, ray_model, config.seed), step_loss,
+                                  data, config.seed, eval_fn, ctx.log, ctx.wall_offset, ctx.mesh)
+  final = functools.partial(render_eval, params, joint_window(cfg, step))
+  info["eval"] = evaluate.evaluate(final, dataset.test, config.eval.chunk,
+                                   os.path.join(stage_dir(ctx.workdir, name), "eval"), 0.0, 1.0,
+                                   config.eval.save_images, config.eval.lpips)
+  return StageState(params, step, config, name), info
+
+
+def params_like(config, name, dataset=None):
+  model, ray_model = models_from_config(config, name)
+  return init_params(model, ray_model, config.seed)
+
+
+def renderer(config, name, dataset, states):
+  """The finished stage states[name] as a render fn of (o, d), as its final
+  evaluation rendered (the joint window at its last step)."""
+  model, ray_model = models_from_config(config, name)
+  cfg, state = config[name], states[name]
+  render_eval = make_eval_fn(model, ray_model, cfg, dataset.near, dataset.far,
+                             config.eval.block_rays)
+  return functools.partial(render_eval, state.params, joint_window(cfg, int(state.step)))
+
+
+base.TRAINERS.register("light_field", base.Trainer(
+    requires=requires, params_like=params_like, train=train, check=check,
+    geometries=frozenset({geometry.Geometry.TWO_PLANE}), renderer=renderer))

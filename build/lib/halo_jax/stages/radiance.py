@@ -1,0 +1,251 @@
+"""The radiance-field stage: Lo-NeRF, Hi-NeRF and the NeRF baselines.
+
+One trainer, configured by data: the stage's model (models.MODELS), sampler
+(samplers.SAMPLERS) and loss terms (stages.terms.TERMS). Lo-NeRF is a
+low-frequency field with stratified samples; Hi-NeRF reads the frozen ray
+field's depth (depth_guided) and L_empty against the frozen Lo-NeRF; the
+baselines are the Hi stage with other samplers and terms.
+"""
+import functools
+import os
+import time
+
+import jax
+import numpy as np
+
+from halo_jax import evaluate, geometry, lightfield, models, parallel, ray_fields, raycast
+from halo_jax import registry, samplers
+from halo_jax.stages import base, batches, loop, terms
+from halo_jax.stages.state import StageState, stage_dir
+from halo_jax.stages.transfer import transfer_from_lo
+
+SEED_COARSE = 7  # offset of the coarse MLP's init seed from config.seed
+
+
+def _sampler(cfg):
+  return samplers.SAMPLERS.get(cfg.sampler.kind, "sampler.kind")
+
+
+def requires(config, name):
+  """Finished stages this stage reads: its sampler's, its terms', Lo-NeRF
+  for init_from_lo."""
+  cfg = config[name]
+  needs = set(_sampler(cfg).needs)
+  for _, term in terms.active_terms(cfg):
+    needs.update(term.needs(cfg))
+  if cfg.get("init_from_lo", False):
+    needs.add("lo")
+  return tuple(sorted(needs))
+
+
+def check(config, name, dspec):
+  """ConfigError for a model, sampler or term the scene kind cannot take."""
+  cfg = config[name]
+  kind = cfg.model.get("kind", "nerf")
+  mspec = models.MODELS.get(kind, f"{name}.model.kind")
+  where = f"data.kind={config.data.kind!r} ({dspec.geometry.value} rays"
+  where += ", frames with times)" if dspec.dynamic else ")"
+  registry.check(dspec.geometry in mspec.geometries,
+                 f"{name}.model.kind={kind!r} takes {geometry.names(mspec.geometries)} rays, "
+                 f"not {where}")
+  registry.check(mspec.dynamic == dspec.dynamic,
+                 f"{name}.model.kind={kind!r} is {'dynamic' if mspec.dynamic else 'static'} but "
+                 f"{where}: use 'deform' for scenes with times and 'nerf' for static ones")
+  spec = _sampler(cfg)
+  registry.check(dspec.geometry in spec.geometries,
+                 f"{name}.sampler.kind={cfg.sampler.kind!r} takes "
+                 f"{geometry.names(spec.geometries)} rays, not {where}")
+  registry.check(spec.dynamic or not dspec.dynamic,
+                 f"{name}.sampler.kind={cfg.sampler.kind!r} needs a ray field, which has no "
+                 f"time input; {where} needs 'stratified' or 'hierarchical'")
+  terms.check_geometries(cfg, name, dspec, where)
+
+
+def init_params(config, name, dataset):
+  """{'nerf': radiance field[, 'coarse': the first pass's own field][, 'ray':
+  the ray field a joint sampler trains]}."""
+  cfg = config[name]
+  model = models.nerf_from_config(config, name)
+  kind = cfg.model.get("kind", "nerf")
+  params = {"nerf": models.init_nerf(model, kind, config.seed)}
+  spec = _sampler(cfg)
+  if cfg.sampler.get("coarse_model", False):
+    params["coarse"] = models.init_nerf(model, kind, config.seed + SEED_COARSE)
+  if spec.trains_guide:
+    ray_model = ray_fields.ray_field_from_config(config.ray, dataset.near, dataset.far)
+    params["ray"] = ray_fields.init_ray_field(ray_model, config.seed)
+  return params
+
+
+def training_rays(views, precrop_frac):
+  """All training pixels as flat rays: origins, dirs, rgb [R, 3], times [R, 1]
+  (dynamic scenes), and `index` (batches.index_data). Numpy."""
+  o, d = views.rays()
+  n, h, w = views.images.shape[:3]
+  out = {"origins": o.reshape(-1, 3), "dirs": d.reshape(-1, 3),
+         "rgb": views.images.reshape(-1, 3),
+         "index": batches.index_data(n, h, w, precrop_frac)}
+  if views.times is not None:
+    out["times"] = np.ascontiguousarray(views.ray_times().reshape(-1, 1))
+  return out
+
+
+def joint_window(cfg, step):
+  """The joint sampler's half window at `step` (lightfield.alpha_schedule)."""
+  return lightfield.alpha_schedule(step, cfg.joint.alpha_steps, cfg.joint.alpha_final)
+
+
+def band_fraction(cfg, step):
+  """FreeNeRF's mask position at `step` (None when the stage has no
+  freq_reg): step / (end * steps), capped at 1."""
+  if "freq_reg" not in cfg or cfg.freq_reg.end <= 0:
+    return None
+  return jax.numpy.minimum(step / (cfg.freq_reg.end * cfg.steps), 1.0)
+
+
+def loss_fn(params, data, key, step, part=None, *, s):
+  """The stage's loss on one batch drawn on device (split over `s.mesh`'s
+  devices when data-parallel), or on its `part` (loop.part_of: every ray
+  keeps its own PRNG key). s: the stage's static settings (`loss_settings`)."""
+  cfg = s["cfg"]
+  k_idx, k_crop, k_ren, k_extra, k_extra_s = jax.random.split(key, 5)
+  idx = batches.draw(k_idx, k_crop, step, data["origins"].shape[0], cfg.batch_rays,
+                     data["index"], cfg.precrop_steps, cfg.get("one_image", False))
+  keys = loop.part_of(jax.random.split(k_ren, cfg.batch_rays), part)
+  idx = parallel.shard_batch(loop.part_of(idx, part), s["mesh"])
+  batch = {"origins": data["origins"][idx], "dirs": data["dirs"][idx], "rgb": data["rgb"][idx],
+           "times": data["times"][idx] if "times" in data else None, "idx": idx}
+  guide, window = _guide_at(s, params, data, step)
+  outs = raycast.render_rays(
+      s["model"], cfg.sampler, params["nerf"], batch["origins"], batch["dirs"], keys,
+      near=s["near"], far=s["far"], white_background=s["white"], randomized=True,
+      noise=cfg.density_noise, guide=guide, times=batch["times"], window=window,
+      coarse_params=params.get("coarse"), band_fraction=band_fraction(cfg, step))
+  x = terms.Inputs(params, s["model"], outs, batch, data, (k_extra, k_extra_s), part,
+                   s["mesh"], s["near"], s["far"], s["white"], guide)
+  loss, aux = terms.total(cfg, step, x, s["terms"])
+  if window is not None:
+    aux["alpha"] = window
+  return loss, aux
+
+
+def _guide_at(s, params, data, step):
+  """(Guide or None, the joint window or None) for this step."""
+  spec = _sampler(s["cfg"])
+  if not spec.guided:
+    return None, None
+  if spec.trains_guide:
+    return (raycast.Guide(s["guide_model"], params["ray"], s["geometry"], s["radius"]),
+            joint_window(s["cfg"], step))
+  return raycast.Guide(s["guide_model"], data["guide"], s["geometry"], s["radius"]), None
+
+
+def _guide_setup(ctx: base.StageContext):
+  """(ray-field model, its frozen params or None, the sphere radius) of a
+  guided sampler; (None, None, 0) otherwise."""
+  cfg, ds = ctx.cfg, ctx.dataset
+  spec = _sampler(cfg)
+  if not spec.guided:
+    return None, None, 0.0
+  ray_cfg = ctx.config.ray if spec.trains_guide else ctx.states["ray"].config.ray
+  model = ray_fields.ray_field_from_config(ray_cfg, ds.near, ds.far)
+  radius = (ray_cfg.radius or ds.radius) if ds.geometry == geometry.Geometry.SPHERE else 0.0
+  frozen = None if spec.trains_guide else ctx.states["ray"].params["ray"]
+  return model, frozen, radius
+
+
+def _initial_params(ctx: base.StageContext):
+  config, name, cfg = ctx.config, ctx.name, ctx.cfg
+  params = init_params(config, name, ctx.dataset)
+  if cfg.get("init_from_lo", False):
+    lo = ctx.states["lo"]
+    if cfg.encoding.with_lo and lo.config.lo.encoding.to_dict() != config.lo.encoding.to_dict():
+      raise registry.ConfigError(
+          f"{name}.encoding.with_lo: this run's lo.encoding {config.lo.encoding.to_dict()} "
+          f"differs from the finished Lo stage's {lo.config.lo.encoding.to_dict()}")
+    params["nerf"] = transfer_from_lo(params["nerf"], lo.params["nerf"], cfg.encoding.with_lo)
+  return params
+
+
+def loss_settings(cfg, model, *, near, far, white, geometry_=geometry.Geometry.SPHERE,
+                  radius=0.0, guide_model=None, mesh=None):
+  """The static settings `loss_fn` reads (its `s`)."""
+  return dict(cfg=cfg, model=model, guide_model=guide_model, geometry=geometry_,
+              radius=radius, near=near, far=far, white=white, terms=terms.active_terms(cfg),
+              mesh=mesh)
+
+
+def _eval_closures(ctx, model, guide_model, guide_params, radius, cfg):
+  """(make_eval(params, step) -> render fn of (o, d[, t]), eval_fn for curves)."""
+  config, ds = ctx.config, ctx.dataset
+  render_eval = raycast.make_eval_fn(
+      model, cfg.sampler, near=ds.near, far=ds.far, white_background=ds.white_background,
+      guide_model=guide_model, geometry=ds.geometry, radius=radius,
+      block_rays=config.eval.block_rays)
+  trains_guide = _sampler(cfg).trains_guide
+
+  def make_eval(p, step):
+    step = cfg.steps if step is None else step
+    kw = dict(coarse_params=p.get("coarse"), band_fraction=band_fraction(cfg, step))
+    if trains_guide:  # the window the joint sampler trains with at this step
+      return functools.partial(render_eval, p["nerf"], p["ray"], window=joint_window(cfg, step),
+                               **kw)
+    return functools.partial(render_eval, p["nerf"], guide_params, **kw)
+
+  def eval_fn(params, step=None):
+    return evaluate.heldout(make_eval(params, step), ds.test, config.eval.chunk,
+                           config.eval.curve_views)
+  return make_eval, eval_fn
+
+
+def train(ctx: base.StageContext):
+  """Trains the radiance-field stage ctx.name; returns (StageState, info)."""
+  config, name, ds = ctx.config, ctx.name, ctx.dataset
+  cfg = ctx.cfg
+  active = terms.active_terms(cfg)
+  loop.check_parts(cfg, cfg.batch_rays, f"{name}.batch_rays", ctx.mesh)
+  if any(n == "empty" for n, _ in active):
+    loop.check_parts(cfg, cfg.empty.num_rays, f"{name}.empty.num_rays", ctx.mesh)
+  model = models.nerf_from_config(config, name)
+  params = _initial_params(ctx)
+  t0 = time.perf_counter()
+  data = training_rays(ds.train, cfg.precrop_frac)
+  guide_model, guide_params, radius = _guide_setup(ctx)
+  setup = terms.Setup(config, cfg, ds, data, ctx.states)
+  data = dict(data, **{n: t.prepare(setup) for n, t in active if t.prepare is not None})
+  if guide_params is not None:
+    data["guide"] = guide_params
+  data = jax.device_put(data)
+  bank_s = time.perf_counter() - t0  # rendering Lo targets counts as training time
+  cfg = loop.minus_seconds(cfg, bank_s)
+  step_loss = functools.partial(loss_fn, s=loss_settings(
+      cfg, model, near=ds.near, far=ds.far, white=ds.white_background, geometry_=ds.geometry,
+      radius=radius, guide_model=guide_model, mesh=ctx.mesh))
+  make_eval, eval_fn = _eval_closures(ctx, model, guide_model, guide_params, radius, cfg)
+  params, step, info = loop.train(name, cfg, ctx.workdir, params, step_loss, data, config.seed,
+                                  eval_fn, ctx.log, ctx.wall_offset + bank_s, ctx.mesh)
+  info["wall_s"] += bank_s
+  eval_dir = os.path.join(stage_dir(ctx.workdir, name), "eval")
+  final = make_eval(params, step)
+  info["eval"] = evaluate.evaluate(final, ds.test, config.eval.chunk, eval_dir, ds.near, ds.far,
+                                   config.eval.save_images, config.eval.lpips)
+  if ds.dynamic:
+    info["eval"]["flicker"] = evaluate.flicker(
+        final, ds.test, config.eval.chunk, config.eval.flicker_frames,
+        eval_dir if config.eval.save_images else None)
+  return StageState(params, step, config, name), info
+
+
+def renderer(config, name, dataset, states):
+  """The finished stage states[name] as a render fn of (o, d[, t]), exactly as
+  its final evaluation rendered (same sampler, guide and step-dependent terms)."""
+  ctx = base.StageContext(config, name, dataset, "", states)
+  model = models.nerf_from_config(config, name)
+  guide_model, guide_params, radius = _guide_setup(ctx)
+  make_eval, _ = _eval_closures(ctx, model, guide_model, guide_params, radius, config[name])
+  return make_eval(states[name].params, int(states[name].step))
+
+
+base.TRAINERS.register("radiance", base.Trainer(
+    requires=requires, params_like=init_params, train=train, check=check,
+    geometries=geometry.SPATIAL, renderer=renderer))

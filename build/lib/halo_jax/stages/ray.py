@@ -1,0 +1,108 @@
+"""The ray-field stage: distil the frozen Lo-NeRF's depth and opacity into a
+light-field network that answers with one MLP query per ray."""
+import functools
+import time
+
+import jax
+import jax.numpy as jnp
+
+from halo_jax import geometry, losses, parallel, ray_fields, raycast, registry
+from halo_jax.stages import base, lo_targets, loop
+from halo_jax.stages.state import StageState
+
+TEACHER = "lo"  # the stage whose depth and opacity the ray field learns
+
+
+def requires(config, name):
+  return (TEACHER,)
+
+
+def check(config, name, dspec):
+  cfg = config[name]
+  registry.check(dspec.geometry == geometry.Geometry.SPHERE or not cfg.bank_rays
+                 or not cfg.random_fraction,
+                 f"{name}.random_fraction={cfg.random_fraction} draws random rays from cameras on "
+                 f"a hemisphere, which data.kind={config.data.kind!r} "
+                 f"({dspec.geometry.value} rays) does not have: set {name}.random_fraction=0")
+  registry.check(not dspec.dynamic, f"the ray field has no time input; data.kind="
+                 f"{config.data.kind!r} has frames with times: leave the '{name}' stage out")
+
+
+def init_params(config, name, dataset):
+  model = ray_fields.ray_field_from_config(config[name], dataset.near, dataset.far)
+  return {"ray": ray_fields.init_ray_field(model, config.seed)}
+
+
+def loss_fn(params, data, key, step, part=None, *, model, guide_geometry, radius, far, n_train,
+            n_random, mesh=None):
+  """L_ray on a batch of training rays and random hemisphere rays (or on the
+  batch's `part`, loop.part_of: each source is cut alike)."""
+  k_t, k_r = jax.random.split(key)
+  sources = []
+  for k, src, n in ((k_t, data["train"], n_train), (k_r, data.get("random"), n_random)):
+    if n:
+      i = loop.part_of(jax.random.randint(k, (n,), 0, src["origins"].shape[0]), part)
+      sources.append({f: v[i] for f, v in src.items()})
+  batch = {f: parallel.shard_batch(jnp.concatenate([p[f] for p in sources]), mesh)
+           for f in sources[0]}
+  guide = raycast.Guide(model, params["ray"], guide_geometry, radius)
+  depth, acc = raycast.ray_field_depth(guide, batch["origins"], batch["dirs"])
+  loss = losses.ray_field(depth, acc, batch["depth"], batch["acc"], far)
+  return loss, {"depth_rmse": jnp.sqrt(jnp.mean((depth - batch["depth"]) ** 2)),
+                "acc_mae": jnp.mean(jnp.abs(acc - batch["acc"]))}
+
+
+def _targets(ctx, lo_samples, n_random, radius):
+  """Lo-NeRF's depth and opacity on the training rays and on a bank of random
+  hemisphere rays (numpy)."""
+  config, cfg, ds = ctx.config, ctx.cfg, ctx.dataset
+  lo = ctx.states[TEACHER]
+  o, d = ds.train.rays()
+  o, d = o.reshape(-1, 3), d.reshape(-1, 3)
+  common = dict(near=ds.near, far=ds.far, white_background=ds.white_background,
+                target=cfg.depth_target, chunk=config.eval.chunk,
+                block_rays=config.eval.block_rays)
+  data = {"train": {"origins": o, "dirs": d,
+                    **lo_targets.on_rays(lo, o, d, num_samples=lo_samples, **common)}}
+  if n_random:
+    data["random"] = lo_targets.random_ray_bank(
+        lo, cfg.bank_rays, radius, ds.train.focal / ds.train.width, ds.near, ds.far,
+        ds.white_background, lo_samples, config.seed + 2, cfg.depth_target, config.eval.chunk,
+        config.eval.block_rays)
+  return data
+
+
+def train(ctx: base.StageContext):
+  """Trains the ray field on Lo-NeRF targets; returns (StageState, info).
+
+  Targets are rendered once at the start (training rays and a bank of random
+  hemisphere rays); that time counts as this stage's training time.
+  """
+  config, name, ds = ctx.config, ctx.name, ctx.dataset
+  cfg = ctx.cfg
+  sphere = ds.geometry == geometry.Geometry.SPHERE
+  radius = (cfg.radius or ds.radius) if sphere else 0.0
+  model = ray_fields.ray_field_from_config(cfg, ds.near, ds.far)
+  lo_samples = cfg.lo_samples or ctx.states[TEACHER].config.lo.sampler.num_samples
+  n_random = int(round(cfg.batch_rays * cfg.random_fraction)) if cfg.bank_rays else 0
+  loop.check_parts(cfg, cfg.batch_rays - n_random, f"{name}.batch_rays (training rays)", ctx.mesh)
+  loop.check_parts(cfg, n_random, f"{name}.batch_rays (random rays)", ctx.mesh)
+  t0 = time.perf_counter()
+  data = _targets(ctx, lo_samples, n_random, radius)
+  target_s = time.perf_counter() - t0
+  data = jax.device_put(data)
+  step_loss = functools.partial(loss_fn, model=model, guide_geometry=ds.geometry, radius=radius,
+                                far=ds.far, n_train=cfg.batch_rays - n_random,
+                                n_random=n_random, mesh=ctx.mesh)
+  cfg = loop.minus_seconds(cfg, target_s)
+  params, step, info = loop.train(name, cfg, ctx.workdir, init_params(config, name, ds),
+                                  step_loss, data, config.seed, None, ctx.log,
+                                  ctx.wall_offset + target_s, ctx.mesh)
+  info["wall_s"] += target_s
+  info["target_s"] = target_s
+  return StageState(params, step, config, name), info
+
+
+base.TRAINERS.register("ray_field", base.Trainer(
+    requires=requires, params_like=init_params, train=train, check=check,
+    geometries=geometry.SPATIAL))

@@ -1,0 +1,136 @@
+"""Sweeps any config fields from the command line; one workdir per point.
+
+  halo-sweep --config=configs/blender.py:lego_8view_cpu --workdir=DIR \
+      --sweep=lo.encoding.L=3,5,7 --sweep=lo.encoding.scale=1,8,32 [--config.stages=lo]
+
+Runs `config.stages` for every point of the product of the --sweep lists (in
+DIR/<field=value,...>; a killed sweep resumes, finished points are restored),
+then writes DIR/results.json, DIR/results.md and DIR/sweep.png: for each point
+the held-out PSNR / SSIM / LPIPS of the last stage run, its training seconds
+and, when the point trained a Lo-NeRF, the frequency criterion of that Lo-NeRF
+(halo_jax/tuning.py, settings from config.tune).
+"""
+import copy
+import itertools
+import json
+import os
+
+from absl import app, flags, logging
+from ml_collections import config_flags
+
+from halo_jax import (config_files, datasets, pipeline, plots, stages, tuning, user_errors,
+                      workdir_lock)
+from halo_jax.stages import radiance
+
+FLAGS = flags.FLAGS
+config_flags.DEFINE_config_file("config", None, "Base config (path[:variant]).",
+                                lock_config=True)
+flags.DEFINE_string("workdir", None, "Output folder.")
+flags.DEFINE_multi_string("sweep", [], "field=v1,v2,... (repeat for a product).")
+flags.DEFINE_bool("criterion", True, "Score each point's Lo-NeRF with the frequency criterion.")
+flags.mark_flags_as_required(["config", "workdir"])
+
+
+def _convert(config, field, text):
+  """Parses `text` as the type of config field `field` (dotted)."""
+  *parents, leaf = field.split(".")
+  node = config
+  for p in parents:
+    node = node[p]
+  if leaf not in node:
+    raise ValueError(f"--sweep: config has no field {field!r}")
+  current = node[leaf]
+  if isinstance(current, bool):
+    if text.lower() not in ("true", "false", "1", "0"):
+      raise ValueError(f"--sweep: {field} is a bool, got {text!r}")
+    return text.lower() in ("true", "1")
+  if isinstance(current, (int, float)):
+    return type(current)(float(text)) if isinstance(current, int) else float(text)
+  return text
+
+
+def parse_sweeps(config, specs):
+  """['a.b=1,2', 'c=x,y'] -> list of points, each [(field, value), ...]."""
+  axes = []
+  for spec in specs:
+    if "=" not in spec:
+      raise ValueError(f"--sweep={spec!r}: expected field=v1,v2,...")
+    field, values = spec.split("=", 1)
+    axes.append([(field, _convert(config, field, v)) for v in values.split(",") if v])
+  return [list(p) for p in itertools.product(*axes)] if axes else [[]]
+
+
+def apply(config, point):
+  c = copy.deepcopy(config)
+  for field, value in point:
+    *parents, leaf = field.split(".")
+    node = c
+    for p in parents:
+      node = node[p]
+    node[leaf] = value
+  return c
+
+
+def label(point):
+  return ",".join(f"{f}={v:g}" if isinstance(v, float) else f"{f}={v}" for f, v in point) or "base"
+
+
+def run_point(config, point, workdir, dataset, with_criterion):
+  c = apply(config, point)
+  wd = os.path.join(workdir, label(point))
+  infos = pipeline.run(c, wd, dataset)
+  last = infos.get(c.final_stage) or infos[pipeline.parse_stages(c.stages, c)[-1]]
+  ev = last.get("eval", {})
+  row = {"point": {f: v for f, v in point}, "label": label(point),
+         "psnr": ev.get("psnr"), "ssim": ev.get("ssim"), "lpips": ev.get("lpips"),
+         "wall_s": sum(i["wall_s"] for i in infos.values()), "criterion": None}
+  if with_criterion and "lo" in infos:
+    lo = stages.load(wd, "lo", radiance.init_params(c, "lo", dataset))
+    row["criterion"] = tuning.lo_criterion(lo, dataset, c.tune, c.eval.chunk)["criterion"]
+  return row
+
+
+def report(rows, workdir):
+  fmt = lambda v, f: "-" if v is None else format(v, f)
+  lines = ["| point | criterion | held-out PSNR | SSIM | LPIPS | train s |",
+           "|---|---|---|---|---|---|"]
+  for r in rows:
+    lines.append(f"| {r['label']} | {fmt(r['criterion'], '.2f')} | {fmt(r['psnr'], '.2f')} | "
+                 f"{fmt(r['ssim'], '.3f')} | {fmt(r['lpips'], '.3f')} | {r['wall_s']:.0f} |")
+  table = "\n".join(lines) + "\n"
+  with open(os.path.join(workdir, "results.md"), "w") as f:
+    f.write(table)
+  plots.criterion_and_psnr([r["label"] for r in rows], [r["criterion"] for r in rows],
+                           [r["psnr"] for r in rows], os.path.join(workdir, "sweep.png"))
+  return table
+
+
+def main(argv):
+  del argv
+  logging.set_verbosity(logging.WARNING)
+  # one launch per workdir; bad input is one line and exit 2, not a traceback
+  with user_errors.reported(), workdir_lock.hold(FLAGS.workdir):
+    run(FLAGS.config)
+
+
+def run(config):
+  """The experiment in FLAGS.workdir (locked by main)."""
+  os.makedirs(FLAGS.workdir, exist_ok=True)
+  config = FLAGS.config
+  points = parse_sweeps(config, FLAGS.sweep)
+  dataset = datasets.load(config.data, FLAGS.workdir)
+  rows = []
+  for point in points:
+    rows.append(run_point(config, point, FLAGS.workdir, dataset, FLAGS.criterion))
+    with open(os.path.join(FLAGS.workdir, "results.json"), "w") as f:
+      json.dump({"points": rows}, f, indent=1)
+  print(report(rows, FLAGS.workdir))
+
+
+def cli():
+  """The halo-sweep console script."""
+  app.run(main, argv=config_files.resolve_argv())
+
+
+if __name__ == "__main__":
+  cli()

@@ -1,0 +1,102 @@
+"""`validate(config)`: every check that needs no data, run before any work.
+
+Each failure is one ConfigError line that names the field(s) and what is
+allowed. Checks that depend on the scene kind use the dataset registry's
+declaration (its ray geometry, whether frames carry times), not the data.
+"""
+import math
+
+from halo_jax import datasets, geometry, samplers
+from halo_jax.registry import ConfigError, check
+from halo_jax.stages import base, order
+
+TRAIN_FIELDS = ("steps", "batch_rays", "lr_init", "lr_final", "microbatches")
+
+
+def _positive_int(value, field):
+  check(isinstance(value, int) and not isinstance(value, bool) and value > 0,
+        f"{field}={value!r}: must be a positive integer")
+
+
+def _positive_float(value, field):
+  check(isinstance(value, (int, float)) and not isinstance(value, bool)
+        and math.isfinite(value) and value > 0, f"{field}={value!r}: must be a positive number")
+
+
+def _check_training(cfg, name):
+  _positive_int(cfg.steps, f"{name}.steps")
+  _positive_int(cfg.batch_rays, f"{name}.batch_rays")
+  _positive_float(cfg.lr_init, f"{name}.lr_init")
+  _positive_float(cfg.lr_final, f"{name}.lr_final")
+  _positive_int(cfg.microbatches, f"{name}.microbatches")
+  check(cfg.batch_rays % cfg.microbatches == 0,
+        f"{name}.microbatches={cfg.microbatches} does not divide "
+        f"{name}.batch_rays={cfg.batch_rays}")
+  for field in ("checkpoint_every", "log_every"):
+    _positive_int(cfg[field], f"{name}.{field}")
+  check(isinstance(cfg.get("max_nonfinite", 0), int) and cfg.get("max_nonfinite", 0) >= 0,
+        f"{name}.max_nonfinite={cfg.get('max_nonfinite')!r}: must be an integer >= 0")
+  check(cfg.max_seconds >= 0, f"{name}.max_seconds={cfg.max_seconds!r}: must be >= 0")
+
+
+def _check_sampler(cfg, name):
+  if "sampler" not in cfg:
+    return
+  s = cfg.sampler
+  spec = samplers.SAMPLERS.get(s.kind, f"{name}.sampler.kind")
+  _positive_int(s.num_samples, f"{name}.sampler.num_samples")
+  if spec.importance:
+    _positive_int(s.num_coarse, f"{name}.sampler.num_coarse")
+  if spec.guided:
+    check(0 < s.window <= 1, f"{name}.sampler.window={s.window!r}: must be in (0, 1]")
+
+
+def _check_budget(config, names):
+  check(config.budget_s >= 0, f"budget_s={config.budget_s!r}: must be >= 0")
+  if config.budget_s > 0:
+    shares = {n: config.budget_shares.get(n, None) for n in names}
+    missing = [n for n, v in shares.items() if v is None]
+    check(not missing, f"budget_shares has no share for stage(s) {missing}")
+    check(all(v >= 0 for v in shares.values()) and sum(shares.values()) > 0,
+          f"budget_shares {shares}: shares must be >= 0 and sum to more than 0 over the "
+          f"stages {list(names)}")
+
+
+def _check_auto(config, dspec):
+  if not config.lo.encoding.get("auto", False):
+    return
+  check(dspec.geometry == geometry.Geometry.SPHERE and not dspec.dynamic,
+        f"lo.encoding.auto=True: the frequency search renders nearby views on a sphere of "
+        f"cameras of a static scene; data.kind={config.data.kind!r} "
+        f"({dspec.geometry.value} rays{', with times' if dspec.dynamic else ''}) is not one: "
+        f"set lo.encoding.L and lo.encoding.scale by hand")
+
+
+def validate(config) -> None:
+  """Raises ConfigError (one line naming the field) for a config that cannot
+  run; returns None for one that can."""
+  dspec = datasets.spec_of(config.data)
+  if config.data.kind == "procedural":
+    scenes = sorted(datasets.procedural.SCENES)
+    check(config.data.get("procedural_scene", "spheres") in scenes,
+          f"data.procedural_scene={config.data.get('procedural_scene')!r}: must be one of {scenes}")
+  for name in order.stage_names(config):  # names the field before the graph reads it
+    base.trainer_of(config, name)
+    _check_sampler(config[name], name)
+  names = order.needed(config)
+  final = config.get("final_stage", "")
+  check(final in order.stage_names(config),
+        f"final_stage={final!r}: must be one of {list(order.stage_names(config))}")
+  every = tuple(dict.fromkeys(names + order.needed(config, final)))
+  for name in reversed(every):  # the requested stage's own complaint first
+    trainer = base.trainer_of(config, name)
+    check(dspec.geometry in trainer.geometries,
+          f"{name}.kind={config[name].kind!r} trains on {geometry.names(trainer.geometries)} "
+          f"rays; data.kind={config.data.kind!r} has {dspec.geometry.value} rays")
+    _check_training(config[name], name)
+    trainer.check(config, name, dspec)
+  _check_budget(config, order.needed(config, final))
+  _check_auto(config, dspec)
+
+
+__all__ = ["ConfigError", "validate"]

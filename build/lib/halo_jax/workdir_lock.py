@@ -1,0 +1,60 @@
+"""One process per workdir: an OS file lock taken at launch.
+
+The lock is `fcntl.flock` on `<workdir>/.lock`, so the kernel releases it when
+the holder exits, however it exits (a `kill -9` leaves nothing stale). The
+file records the holder's pid, host and command line, which a refused launch
+prints.
+"""
+import contextlib
+import fcntl
+import os
+import socket
+import sys
+
+LOCK_FILE = ".lock"
+
+
+class WorkdirLocked(RuntimeError):
+  """Another live process holds the workdir."""
+
+
+@contextlib.contextmanager
+def hold(workdir: str):
+  """Holds `workdir`'s lock for the block; WorkdirLocked at once if another
+  process holds it. Re-entrant within one process (nested holds of one
+  workdir, e.g. a driver and the pipeline it calls, share the lock)."""
+  path = os.path.abspath(os.path.join(workdir, LOCK_FILE))
+  if path in _HELD:
+    _HELD[path][1] += 1
+    try:
+      yield
+    finally:
+      _HELD[path][1] -= 1
+    return
+  os.makedirs(os.path.dirname(path), exist_ok=True)
+  f = open(path, "a+")
+  try:
+    fcntl.flock(f, fcntl.LOCK_EX | fcntl.LOCK_NB)
+  except BlockingIOError:
+    f.seek(0)
+    holder = f.read().strip() or "an unknown process"
+    f.close()
+    raise WorkdirLocked(f"{workdir} is in use by {holder}; wait for it to end or use "
+                        f"another --workdir") from None
+  f.seek(0)
+  f.truncate()
+  f.write(f"pid {os.getpid()} on host {socket.gethostname()} "
+          f"({' '.join(sys.argv)[:200]})\n")
+  f.flush()
+  _HELD[path] = [f, 1]
+  try:
+    yield
+  finally:
+    _HELD[path][1] -= 1
+    if _HELD[path][1] == 0:
+      del _HELD[path]
+      fcntl.flock(f, fcntl.LOCK_UN)
+      f.close()
+
+
+_HELD = {}
