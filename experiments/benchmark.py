@@ -38,6 +38,8 @@ flags.DEFINE_string("scratch", "/tmp/halo_bench", "Workdirs (checkpoints, render
 flags.DEFINE_string("only", "", "Run only runs whose 'scene/method/seed<k>' matches this regex.")
 flags.DEFINE_integer("max_runs", 0, "Stop after this many runs (0: all).")
 flags.DEFINE_bool("dry_run", False, "Print the plan and each run's state; train nothing.")
+flags.DEFINE_integer("first_core", -1, "With a suite pinned to k cores: the first of them "
+                     "(-1: the machine's last k), e.g. to run two suites side by side.")
 
 
 def data_root() -> str:
@@ -118,8 +120,10 @@ def main(argv):
   logging.set_verbosity(logging.WARNING)
   suite = suites.SUITES[FLAGS.suite]
   if suite.cores and hasattr(os, "sched_setaffinity"):
-    # The last cores, before JAX starts its thread pool: the same for every run.
-    cores = sorted(os.sched_getaffinity(0))[-suite.cores:]
+    # Before JAX starts its thread pool: the same cores for every run.
+    allowed = sorted(os.sched_getaffinity(0))
+    first = FLAGS.first_core if FLAGS.first_core >= 0 else len(allowed) - suite.cores
+    cores = allowed[first:first + suite.cores]
     os.sched_setaffinity(0, cores)
   todo = plan(suite, FLAGS.only)
   done, failed = 0, []
