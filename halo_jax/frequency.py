@@ -62,3 +62,46 @@ def spectrum_difference(images_a, images_b, mask_fraction: float = 0.01):
   diff = jnp.abs(fa - fb) * keep
   per_pair = diff.sum((-2, -1)) / jnp.maximum(keep.sum((-2, -1)), 1)
   return per_pair.mean()
+
+
+def area_resize(images, size: int):
+  """[..., H, W] -> [..., size, size] by averaging K x K blocks when H and W
+  are multiples K of `size` (exact for any integer downscale), else by
+  antialiased linear resampling."""
+  h, w = images.shape[-2:]
+  if h % size == 0 and w % size == 0 and h // size == w // size:
+    k = h // size
+    return images.reshape(*images.shape[:-2], size, k, size, k).mean((-3, -1))
+  return jax.image.resize(images, (*images.shape[:-2], size, size), "linear", antialias=True)
+
+
+def relative_spectrum_difference(images_a, images_b, mask_fraction: float = 0.01,
+                                 size: int = 0):
+  """rho = mean over pairs of sum_K |F_a - F_b| / sum_K (|F_a| + |F_b|) / 2.
+
+  The scale-free form of the criterion: the ratio does not change when both
+  images are brightened by the same factor or the FFT is normalised another
+  way, and with `size` (renders resampled to a fixed criterion resolution) it
+  does not depend on the resolution they were rendered at. K is the spectrum
+  without DC and without round(mask_fraction size^2) of the largest
+  coefficients, as spectrum_mask. 0 for identical renders; 2 |sin(pi k d / N)|
+  for a grating of k cycles across N pixels shifted by d pixels (mask 0).
+
+  Args:
+    images_a, images_b: [N, H, W, 3] (or [N, H, W]) pairs of renders, linear
+      in brightness (not clipped here, so a brightened pair keeps its ratio).
+    mask_fraction: share of the largest coefficients dropped beside DC.
+    size: criterion resolution (0: the images' own).
+
+  Returns:
+    scalar rho >= 0 (0 where a pair's kept spectrum is all zero).
+  """
+  grey = lambda x: x.mean(-1) if x.ndim == 4 else x
+  a, b = grey(jnp.asarray(images_a, jnp.float32)), grey(jnp.asarray(images_b, jnp.float32))
+  if size:
+    a, b = area_resize(a, size), area_resize(b, size)
+  fa, fb = jnp.fft.fft2(a), jnp.fft.fft2(b)
+  keep = spectrum_mask(fa, fb, mask_fraction)
+  num = (jnp.abs(fa - fb) * keep).sum((-2, -1))
+  den = (0.5 * (jnp.abs(fa) + jnp.abs(fb)) * keep).sum((-2, -1))
+  return jnp.where(den > 0, num / jnp.maximum(den, 1e-30), 0.0).mean()

@@ -130,3 +130,44 @@ def test_sweep_cli_two_points(scene_root, tmp_path):
   assert all(r["criterion"] is not None and r["psnr"] > 0 for r in rows)
   assert "| lo.encoding.L=3,lo.encoding.scale=8 |" in res.stdout
   assert os.path.exists(os.path.join(wd, "sweep.png"))
+
+
+def _pair(seed=0, n=32):
+  rng = np.random.default_rng(seed)
+  a = rng.uniform(0.1, 0.4, (2, n, n, 3)).astype(np.float32)
+  b = np.clip(a + rng.normal(0, 0.05, a.shape), 0, None).astype(np.float32)
+  return a, b
+
+
+def test_relative_criterion_is_scale_free():
+  a, b = _pair()
+  rho = float(frequency.relative_spectrum_difference(a, b, 0.01))
+  assert rho > 0.05
+  # brightened by 2x
+  assert float(frequency.relative_spectrum_difference(2 * a, 2 * b, 0.01)) == pytest.approx(
+      rho, abs=1e-3)
+  # rendered at twice the size (each pixel a 2x2 block), scored at the criterion size
+  up = lambda x: np.repeat(np.repeat(x, 2, 1), 2, 2)
+  assert float(frequency.relative_spectrum_difference(up(a), up(b), 0.01, size=32)) == \
+      pytest.approx(rho, abs=1e-3)
+  # another FFT normalisation: the ratio cancels it (ortho by hand)
+  fa = np.fft.fft2(a.mean(-1), norm="ortho")
+  fb = np.fft.fft2(b.mean(-1), norm="ortho")
+  keep = np.asarray(frequency.spectrum_mask(jnp.asarray(fa), jnp.asarray(fb), 0.01))
+  by_hand = np.mean([(np.abs(fa - fb) * keep).sum((1, 2)) /
+                     (0.5 * (np.abs(fa) + np.abs(fb)) * keep).sum((1, 2))])
+  assert by_hand == pytest.approx(rho, abs=1e-3)
+
+
+def test_relative_criterion_identical_and_grating_closed_form():
+  a, _ = _pair()
+  assert float(frequency.relative_spectrum_difference(a, a)) == 0.0
+  n, k = 64, 5
+  x = np.arange(n)
+  for d in (1, 2, 3):
+    img_a = 0.5 + 0.25 * np.cos(2 * np.pi * k * x / n)
+    img_b = 0.5 + 0.25 * np.cos(2 * np.pi * k * (x - d) / n)
+    ga = np.broadcast_to(img_a, (1, n, n)).astype(np.float32)
+    gb = np.broadcast_to(img_b, (1, n, n)).astype(np.float32)
+    rho = float(frequency.relative_spectrum_difference(ga, gb, mask_fraction=0.0))
+    assert rho == pytest.approx(2 * abs(np.sin(np.pi * k * d / n)), abs=1e-4)
