@@ -2,6 +2,7 @@
 
   halo-sweep --config=configs/blender.py:lego_8view_cpu --workdir=DIR \
       --sweep=lo.encoding.L=3,5,7 --sweep=lo.encoding.scale=1,8,32 [--config.stages=lo]
+  halo-sweep ... --sweep='data.train_views=["r_2,r_16", "r_2,r_16,r_93"]'   # values with commas
 
 Runs `config.stages` for every point of the product of the --sweep lists (in
 DIR/<field=value,...>; a killed sweep resumes, finished points are restored),
@@ -54,9 +55,18 @@ def parse_sweeps(config, specs):
   axes = []
   for spec in specs:
     if "=" not in spec:
-      raise ValueError(f"--sweep={spec!r}: expected field=v1,v2,...")
+      raise ValueError(f"--sweep={spec!r}: expected field=v1,v2,... or field=[JSON list]")
     field, values = spec.split("=", 1)
-    axes.append([(field, _convert(config, field, v)) for v in values.split(",") if v])
+    if values.lstrip().startswith("["):  # values that hold commas, e.g. view lists
+      try:
+        items = json.loads(values)
+      except json.JSONDecodeError as e:
+        raise ValueError(f"--sweep={spec!r}: the list is not JSON ({e})") from e
+      if not isinstance(items, list) or not items:
+        raise ValueError(f"--sweep={spec!r}: expected a non-empty JSON list")
+      axes.append([(field, _convert(config, field, str(v))) for v in items])
+    else:
+      axes.append([(field, _convert(config, field, v)) for v in values.split(",") if v])
   return [list(p) for p in itertools.product(*axes)] if axes else [[]]
 
 
@@ -78,6 +88,8 @@ def label(point):
 def run_point(config, point, workdir, dataset, with_criterion):
   c = apply(config, point)
   wd = os.path.join(workdir, label(point))
+  if any(f.startswith("data.") for f, _ in point):  # this point's own views or scene
+    dataset = datasets.load(c.data, wd)
   infos = pipeline.run(c, wd, dataset)
   last = infos.get(c.final_stage) or infos[pipeline.parse_stages(c.stages, c)[-1]]
   ev = last.get("eval", {})

@@ -171,3 +171,14 @@ def test_relative_criterion_identical_and_grating_closed_form():
     gb = np.broadcast_to(img_b, (1, n, n)).astype(np.float32)
     rho = float(frequency.relative_spectrum_difference(ga, gb, mask_fraction=0.0))
     assert rho == pytest.approx(2 * abs(np.sin(np.pi * k * d / n)), abs=1e-4)
+
+
+def test_sweep_values_with_commas_are_a_json_list(config):
+  from halo_jax import sweep  # pylint: disable=g-import-not-at-top
+  points = sweep.parse_sweeps(config, ['data.train_views=["r_0,r_13", "r_0,r_13,r_26"]',
+                                       "lo.encoding.L=3,5"])
+  assert [p[0] for p in points] == [("data.train_views", "r_0,r_13")] * 2 + [
+      ("data.train_views", "r_0,r_13,r_26")] * 2
+  assert [p[1][1] for p in points] == [3, 5, 3, 5]
+  with pytest.raises(ValueError, match="not JSON"):
+    sweep.parse_sweeps(config, ["data.train_views=[r_0"])
