@@ -14,6 +14,7 @@ orbit (same elevation). Both are rendered at the training resolution.
 import copy
 import json
 import os
+import sys
 from typing import List, Tuple
 
 import numpy as np
@@ -101,8 +102,8 @@ def tune(config, workdir: str, dataset, run_stages, full_grid: bool = False) -> 
 
   Grid points already finished in `workdir` are reused, so a killed search
   resumes. Without full_grid the search stops at the first point below the
-  threshold; if none is, the lowest-frequency point is chosen and
-  'below_threshold' is False. run_stages: halo_jax.pipeline.run (passed in,
+  threshold. The choice and its 'note' come from `decide`: never Hi-NeRF's
+  own frequency unannounced. run_stages: halo_jax.pipeline.run (passed in,
   so that this module does not import the pipeline that calls it).
   """
   t = config.tune
@@ -122,14 +123,55 @@ def tune(config, workdir: str, dataset, run_stages, full_grid: bool = False) -> 
       chosen = {"L": L, "scale": s}
       if not full_grid:
         break
-  below = chosen is not None
-  if chosen is None:
-    chosen = {"L": grid[-1]["L"], "scale": grid[-1]["scale"]}
-  result = {"grid": grid, "chosen": chosen, "below_threshold": below,
-            "threshold": t.threshold, "full_grid": full_grid}
+  hi = config.hi.encoding
+  chosen, note = decide(grid, parse_grid(t.grid), t.threshold, 2.0 ** (hi.L - 1) / hi.scale)
+  result = {"grid": grid, "chosen": chosen, "below_threshold": note["below_threshold"],
+            "note": note["text"], "threshold": t.threshold, "full_grid": full_grid}
   with open(os.path.join(workdir, "results.json"), "w") as f:
     json.dump(result, f, indent=1)
   return result
+
+
+def _fmt(L, s):
+  return f"L={L}, s={s:g}"
+
+
+def decide(rows, grid, threshold, hi_freq):
+  """The search's choice from the scored points `rows` (high to low frequency,
+  each with L, scale, criterion) out of `grid` (parse_grid order).
+
+  The first point below the threshold, except that the rule never hands back
+  Hi-NeRF's frequency (2^(L-1)/s >= hi_freq) unannounced: when the first
+  point already passes, the grid did not bracket the answer, and the choice
+  is the highest grid point below Hi-NeRF's frequency; when none passes, the
+  lowest-frequency point. Returns ({'L', 'scale'}, {'below_threshold',
+  'text'}), text '' for a plain pick and a sentence otherwise.
+  """
+  passing = [i for i, r in enumerate(rows) if r["criterion"] < threshold]
+  freq = lambda L, s: 2.0 ** (L - 1) / s
+  if not passing:
+    L, s = grid[-1]
+    low = min(rows, key=lambda r: r["criterion"])
+    return {"L": L, "scale": s}, {"below_threshold": False, "text": (
+        f"no grid point fell below the threshold {threshold:g} (lowest criterion "
+        f"{low['criterion']:.4g} at {_fmt(low['L'], low['scale'])}); chose the lowest-frequency "
+        f"point {_fmt(L, s)}")}
+  first = rows[passing[0]]
+  pick = {"L": first["L"], "scale": first["scale"]}
+  if passing[0] > 0:
+    return pick, {"below_threshold": True, "text": ""}
+  below_hi = [(L, s) for L, s in grid if freq(L, s) < hi_freq]
+  if freq(first["L"], first["scale"]) >= hi_freq and below_hi:
+    L, s = below_hi[0]
+    return {"L": L, "scale": s}, {"below_threshold": True, "text": (
+        f"the first grid point {_fmt(first['L'], first['scale'])} (Hi-NeRF's frequency or "
+        f"above) already passed the threshold {threshold:g} (criterion "
+        f"{first['criterion']:.4g}), so the grid does not bracket this scene's answer; chose "
+        f"{_fmt(L, s)}, the highest grid point below Hi-NeRF's frequency")}
+  return pick, {"below_threshold": True, "text": (
+      f"the first grid point {_fmt(first['L'], first['scale'])} already passed the threshold "
+      f"{threshold:g} (criterion {first['criterion']:.4g}): the grid may not reach high "
+      "enough to bracket this scene's answer")}
 
 
 def chosen_encoding(config, workdir: str, dataset, run_stages) -> Tuple[int, float]:
@@ -139,8 +181,13 @@ def chosen_encoding(config, workdir: str, dataset, run_stages) -> Tuple[int, flo
   path = os.path.join(tune_dir, "results.json")
   if os.path.exists(path):
     with open(path) as f:
-      chosen = json.load(f)["chosen"]
+      result = json.load(f)
   else:
     os.makedirs(tune_dir, exist_ok=True)
-    chosen = tune(config, tune_dir, dataset, run_stages)["chosen"]
+    result = tune(config, tune_dir, dataset, run_stages)
+  chosen = result["chosen"]
+  if result.get("note"):  # said on every launch that uses the choice
+    print(f"lo.encoding.auto: {result['note']}", file=sys.stderr)
+  print(f"lo.encoding.auto: Lo-NeRF uses {_fmt(chosen['L'], chosen['scale'])} "
+        f"({os.path.relpath(path)})", file=sys.stderr)
   return int(chosen["L"]), float(chosen["scale"])

@@ -182,3 +182,27 @@ def test_sweep_values_with_commas_are_a_json_list(config):
   assert [p[1][1] for p in points] == [3, 5, 3, 5]
   with pytest.raises(ValueError, match="not JSON"):
     sweep.parse_sweeps(config, ["data.train_views=[r_0"])
+
+
+def _rows(points):
+  return [{"L": L, "scale": sc, "criterion": c} for L, sc, c in points]
+
+
+def test_decide_never_returns_hi_frequency_silently():
+  grid = [(10, 1.0), (8, 1.0), (5, 1.0), (5, 32.0)]
+  hi = 2.0 ** 9  # Hi-NeRF's L=10, s=1
+  # a plain pick: the first point below the threshold, after one above it
+  chosen, note = tuning.decide(_rows([(10, 1, 30.0), (8, 1, 20.0)]), grid, 25.0, hi)
+  assert chosen == {"L": 8, "scale": 1.0} and note == {"below_threshold": True, "text": ""}
+  # the first point, Hi-NeRF's own frequency, already passes: the next one down, said
+  chosen, note = tuning.decide(_rows([(10, 1, 3.0)]), grid, 25.0, hi)
+  assert chosen == {"L": 8, "scale": 1.0}
+  assert "does not bracket" in note["text"] and "L=8, s=1" in note["text"]
+  # none passes: the lowest-frequency point, said
+  chosen, note = tuning.decide(_rows([(10, 1, 40.0), (8, 1, 35.0), (5, 1, 30.0),
+                                      (5, 32, 26.0)]), grid, 25.0, hi)
+  assert chosen == {"L": 5, "scale": 32.0} and not note["below_threshold"]
+  assert "no grid point fell below the threshold 25" in note["text"]
+  # a first point already below Hi-NeRF's frequency that passes: kept, with a warning
+  chosen, note = tuning.decide(_rows([(8, 1, 3.0)]), grid[1:], 25.0, hi)
+  assert chosen == {"L": 8, "scale": 1.0} and "may not reach high enough" in note["text"]
