@@ -26,15 +26,19 @@ from ml_collections import config_flags
 from halo_jax import config_files, datasets, methods, pipeline, runs, user_errors, workdir_lock
 
 FLAGS = flags.FLAGS
-config_flags.DEFINE_config_file("config", None, "HALO config (path[:variant]).",
-                                lock_config=True)
-flags.DEFINE_string("workdir", None, "Output folder.")
-flags.DEFINE_bool("all_views_reference", False, "Also train NeRF on all training views.")
-flags.DEFINE_integer("curve_points", 4, "Held-out evaluations per method for the curve.")
-flags.DEFINE_list("methods", ["nerf_paper", "nerf_tuned", "freenerf", "halo", "halo+freenerf"],
-                  "Methods to train (names in halo_jax.methods.METHODS); results of others "
-                  "already in DIR/results.json are kept.")
-flags.mark_flags_as_required(["config", "workdir"])
+
+
+def define_flags():
+  """The command's flags, defined on launch (the tests import this module)."""
+  config_flags.DEFINE_config_file("config", None, "HALO config (path[:variant]).",
+                                  lock_config=True)
+  flags.DEFINE_string("workdir", None, "Output folder.")
+  flags.DEFINE_bool("all_views_reference", False, "Also train NeRF on all training views.")
+  flags.DEFINE_integer("curve_points", 4, "Held-out evaluations per method for the curve.")
+  flags.DEFINE_list("methods", ["nerf_paper", "nerf_tuned", "freenerf", "halo", "halo+freenerf"],
+                    "Methods to train (names in halo_jax.methods.METHODS); results of others "
+                    "already in DIR/results.json are kept.")
+  flags.mark_flags_as_required(["config", "workdir"])
 
 
 def method_configs(config, names, all_views):
@@ -120,6 +124,7 @@ def run(config):
 
 def cli():
   """The halo-compare console script."""
+  define_flags()
   app.run(main, argv=config_files.resolve_argv())
 
 

@@ -24,12 +24,16 @@ from halo_jax import (config_files, datasets, pipeline, plots, stages, tuning, u
 from halo_jax.stages import radiance
 
 FLAGS = flags.FLAGS
-config_flags.DEFINE_config_file("config", None, "Base config (path[:variant]).",
-                                lock_config=True)
-flags.DEFINE_string("workdir", None, "Output folder.")
-flags.DEFINE_multi_string("sweep", [], "field=v1,v2,... (repeat for a product).")
-flags.DEFINE_bool("criterion", True, "Score each point's Lo-NeRF with the frequency criterion.")
-flags.mark_flags_as_required(["config", "workdir"])
+
+
+def define_flags():
+  """The command's flags, defined on launch (the tests import this module)."""
+  config_flags.DEFINE_config_file("config", None, "Base config (path[:variant]).",
+                                  lock_config=True)
+  flags.DEFINE_string("workdir", None, "Output folder.")
+  flags.DEFINE_multi_string("sweep", [], "field=v1,v2,... (repeat for a product).")
+  flags.DEFINE_bool("criterion", True, "Score each point's Lo-NeRF with the frequency criterion.")
+  flags.mark_flags_as_required(["config", "workdir"])
 
 
 def _convert(config, field, text):
@@ -141,6 +145,7 @@ def run(config):
 
 def cli():
   """The halo-sweep console script."""
+  define_flags()
   app.run(main, argv=config_files.resolve_argv())
 
 
