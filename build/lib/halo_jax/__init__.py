@@ -1,1 +1,0 @@
-"""halo-jax: HALO (low-frequency neural fields for few-shot view synthesis) in JAX/Flax."""
