@@ -51,6 +51,12 @@ def spiral(c2w, bounds, n: int, turns: float = 2.0, z_rate: float = 0.5):
   scene depths. The cameras circle the mean pose with the radii of the
   cameras' 90th-percentile offsets, looking at the depth whose disparity is
   the 1:3 blend of the near and 5x-far disparities."""
+  phases = np.linspace(0.0, 2 * np.pi * turns, n, endpoint=False)
+  return spiral_at(c2w, bounds, phases, z_rate)
+
+
+def spiral_at(c2w, bounds, phases, z_rate: float = 0.5):
+  """The spiral's cameras at `phases` [n] (radians along it): [n, 4, 4]."""
   mean = average_pose(c2w[:, :3, :4])
   up = c2w[:, :3, 1].sum(0)
   up = up / np.linalg.norm(up)
@@ -59,7 +65,7 @@ def spiral(c2w, bounds, n: int, turns: float = 2.0, z_rate: float = 0.5):
   radii = np.percentile(np.abs(c2w[:, :3, 3] - mean[:, 3]), 90, axis=0)
   target = mean[:, 3] - focus * mean[:, 2]
   out = []
-  for theta in np.linspace(0.0, 2 * np.pi * turns, n, endpoint=False):
+  for theta in np.asarray(phases, np.float64):
     offset = np.array([np.cos(theta), -np.sin(theta), -np.sin(theta * z_rate)]) * radii
     centre = mean[:, 3] + mean[:, :3] @ offset
     z = centre - target

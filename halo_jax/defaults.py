@@ -193,10 +193,13 @@ def _parallel():
 def _tune():
   """The frequency search (halo_jax.tuning)."""
   return ml_collections.ConfigDict(dict(
-      grid="10:1,8:1,6:1,5:1,5:4,5:8,5:16,5:32",  # L:s points, searched high to low frequency
-      threshold=25.0,        # the paper's threshold on the criterion
+      grid="10:1,7:1,5:1,4:1,5:4,5:16",  # L:s points, searched high to low frequency
+      # on rho (frequency.relative_spectrum_difference), calibrated by
+      # leave-one-scene-out (experiments/calibrate_frequency.py)
+      threshold=0.25,
       num_pairs=8,           # nearby view pairs rendered per point
-      angle_deg=1.5,         # their baseline along the orbit
+      size=64,               # criterion resolution: the renders' short side in pixels
+      shift_px=1.0,          # pair baseline: median displacement of the surface, in those pixels
       mask_fraction=0.01,    # share of the largest spectrum coefficients dropped (beside DC)
       seed=0,
       lo_seconds=0.0,        # training time of each short Lo-NeRF (0: lo.max_seconds)

@@ -1,15 +1,13 @@
 """Choosing Lo-NeRF's P.E. frequency without extra data (HALO sec. 4.1).
 
 Short Lo-NeRFs are trained from the highest frequency of `config.tune.grid`
-to the lowest; for each, pairs of nearby views are rendered and compared
-with `frequency.spectrum_difference`; the first (L, s) whose criterion falls
-below `config.tune.threshold` is chosen. Held-out PSNR is measured for the
-report only; it never enters the choice.
-
-Nearby pairs: camera a at a random azimuth and at an elevation drawn between
-the lowest and highest training camera, on the training cameras' sphere,
-looking at the origin; camera b is camera a moved `angle_deg` along its
-orbit (same elevation). Both are rendered at the training resolution.
+to the lowest; for each, pairs of nearby views (halo_jax/view_pairs.py: orbit
+neighbours, spiral neighbours in NDC, a fixed time per pair for dynamic
+scenes) are rendered at the criterion resolution and compared with the
+scale-free `frequency.relative_spectrum_difference` (rho); the first (L, s)
+whose rho falls below `config.tune.threshold` is chosen. The threshold was
+calibrated across scenes by leave-one-scene-out (docs/frequency.md). Held-out
+PSNR is measured for the report only; it never enters the choice.
 """
 import copy
 import json
@@ -19,8 +17,10 @@ from typing import List, Tuple
 
 import numpy as np
 
-from halo_jax import camera, frequency, models, raycast
-from halo_jax.stages import radiance
+from halo_jax import frequency, view_pairs
+from halo_jax.datasets import llff
+from halo_jax.geometry import Geometry
+from halo_jax.stages import base
 from halo_jax.stages.state import load
 
 
@@ -39,44 +39,26 @@ def parse_grid(spec) -> List[Tuple[int, float]]:
   return sorted(points, key=lambda p: (-(2.0 ** (p[0] - 1)) / p[1], -p[0]))
 
 
-def nearby_pairs(c2w_train, num_pairs: int, angle_deg: float, seed: int):
-  """[N, 2, 4, 4] camera pairs `angle_deg` apart on the training cameras' sphere."""
-  pos = np.asarray(c2w_train)[:, :3, 3].astype(np.float64)
-  radius = float(np.linalg.norm(pos, axis=-1).mean())
-  elev = np.degrees(np.arcsin(np.clip(pos[:, 2] / np.linalg.norm(pos, axis=-1), -1, 1)))
-  rng = np.random.default_rng(seed)
-  az = rng.uniform(0.0, 360.0, num_pairs)
-  el = rng.uniform(elev.min(), elev.max(), num_pairs)
-  return np.stack([np.stack([camera.spherical_camera(radius, a, e),
-                             camera.spherical_camera(radius, a + angle_deg, e)])
-                   for a, e in zip(az, el)])
+def lo_renderer(lo_config, dataset, lo_state):
+  """The finished Lo stage as fn(o, d[, t]) -> {'rgb', 'depth', 'acc'}."""
+  trainer = base.trainer_of(lo_config, "lo")
+  return trainer.renderer(lo_config, "lo", dataset, {"lo": lo_state})
 
 
-def render_pairs(eval_fn, pairs, height, width, focal, chunk):
-  """Renders [N, 2] cameras -> two [N, H, W, 3] image stacks."""
-  rays = [camera.pixel_rays(c, height, width, focal) for c in pairs.reshape(-1, 4, 4)]
-  o = np.stack([r[0] for r in rays])
-  d = np.stack([r[1] for r in rays])
-  rgb = raycast.render_chunked(eval_fn, o, d, chunk)["rgb"]
-  rgb = rgb.reshape(len(pairs), 2, height, width, 3)
-  return rgb[:, 0], rgb[:, 1]
-
-
-def lo_criterion(lo_state, dataset, tune_cfg, chunk) -> dict:
-  """The criterion of a finished Lo-NeRF: {'criterion', 'per_pair'}."""
-  model = models.nerf_from_config(lo_state.config, "lo")
-  render = raycast.make_eval_fn(model, lo_state.config.lo.sampler, near=dataset.near,
-                                far=dataset.far, white_background=dataset.white_background,
-                                block_rays=lo_state.config.eval.block_rays)
-  eval_fn = lambda o, d: render(lo_state.params["nerf"], None, o, d)
-  pairs = nearby_pairs(dataset.train.c2w, tune_cfg.num_pairs, tune_cfg.angle_deg,
-                       tune_cfg.seed)
-  a, b = render_pairs(eval_fn, pairs, dataset.train.height, dataset.train.width,
-                      dataset.train.focal, chunk)
-  per_pair = [float(frequency.spectrum_difference(a[i:i + 1], b[i:i + 1],
-                                                   tune_cfg.mask_fraction))
-              for i in range(len(pairs))]
-  return {"criterion": float(np.mean(per_pair)), "per_pair": per_pair}
+def criterion_of(render, dataset, config) -> dict:
+  """rho of `render` (a finished Lo field) on the scene's view pairs:
+  {'criterion', 'per_pair', 'shift_px', 'steps', 'pair_kind'}."""
+  t = config.tune
+  bounds = None
+  if dataset.geometry == Geometry.NDC:
+    bounds = llff.read_poses(config.data.root)[3]
+  pairs = view_pairs.make(render, dataset, t.num_pairs, t.size, t.shift_px, t.seed,
+                          config.eval.chunk, bounds)
+  per_pair = [float(frequency.relative_spectrum_difference(
+      pairs["a"][i:i + 1], pairs["b"][i:i + 1], t.mask_fraction)) for i in range(len(pairs["a"]))]
+  return {"criterion": float(np.mean(per_pair)), "per_pair": per_pair,
+          "shift_px": [float(x) for x in pairs["shift_px"]],
+          "steps": [float(x) for x in pairs["steps"]], "pair_kind": pairs["kind"]}
 
 
 def point_config(config, L, scale):
@@ -112,11 +94,13 @@ def tune(config, workdir: str, dataset, run_stages, full_grid: bool = False) -> 
     wd = point_dir(workdir, L, s)
     c = point_config(config, L, s)
     info = run_stages(c, wd, dataset)["lo"]   # a finished point is restored, not retrained
-    lo_state = load(wd, "lo", radiance.init_params(c, "lo", dataset))
-    crit = lo_criterion(lo_state, dataset, t, config.eval.chunk)
+    trainer = base.trainer_of(c, "lo")
+    lo_state = load(wd, "lo", trainer.params_like(c, "lo", dataset))
+    crit = criterion_of(lo_renderer(c, dataset, lo_state), dataset, c)
     ev = info.get("eval", {})
     grid.append({"L": L, "scale": s, "max_freq": 2.0 ** (L - 1) / s,
                  "criterion": crit["criterion"], "per_pair": crit["per_pair"],
+                 "shift_px": crit["shift_px"], "pair_kind": crit["pair_kind"],
                  "psnr": ev.get("psnr"), "ssim": ev.get("ssim"), "lpips": ev.get("lpips"),
                  "wall_s": info["wall_s"], "steps": info["step"]})
     if chosen is None and crit["criterion"] < t.threshold:

@@ -6,7 +6,7 @@ declaration (its ray geometry, whether frames carry times), not the data.
 """
 import math
 
-from halo_jax import datasets, geometry, samplers
+from halo_jax import datasets, geometry, samplers, view_pairs
 from halo_jax.registry import ConfigError, check
 from halo_jax.stages import base, order
 
@@ -65,11 +65,16 @@ def _check_budget(config, names):
 def _check_auto(config, dspec):
   if not config.lo.encoding.get("auto", False):
     return
-  check(dspec.geometry == geometry.Geometry.SPHERE and not dspec.dynamic,
-        f"lo.encoding.auto=True: the frequency search renders nearby views on a sphere of "
-        f"cameras of a static scene; data.kind={config.data.kind!r} "
-        f"({dspec.geometry.value} rays{', with times' if dspec.dynamic else ''}) is not one: "
-        f"set lo.encoding.L and lo.encoding.scale by hand")
+  final = config.get("final_stage", "hi")
+  check("lo" in order.needed(config, final) and config.lo.kind == "radiance",
+        f"lo.encoding.auto=True: the frequency rule picks Lo-NeRF's P.E., and this config's "
+        f"output stage {final!r} needs no Lo-NeRF radiance stage (data.kind="
+        f"{config.data.kind!r}); set the frequencies by hand")
+  try:
+    view_pairs.kind_name(dspec.geometry, dspec.dynamic)
+  except ValueError as e:
+    raise ConfigError(f"lo.encoding.auto=True: {e} (data.kind={config.data.kind!r}); set "
+                      "lo.encoding.L and lo.encoding.scale by hand") from None
 
 
 def validate(config) -> None:

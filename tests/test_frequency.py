@@ -8,7 +8,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from halo_jax import camera, frequency, pipeline, stages, tuning
+from halo_jax import frequency, pipeline, tuning
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 H, W = 32, 40
@@ -54,23 +54,6 @@ def test_mask_drops_dc_and_exactly_the_largest_coefficients():
   assert not keep[0, 3] and not keep[0, W - 3]
 
 
-def test_nearby_pairs_are_angle_apart_on_the_training_sphere():
-  train = np.stack([camera.spherical_camera(4.0, az, el)
-                    for az, el in ((0, 10), (90, 40), (200, 70))])
-  pairs = tuning.nearby_pairs(train, 6, 1.5, seed=0)
-  assert pairs.shape == (6, 2, 4, 4)
-  pa, pb = pairs[:, 0, :3, 3], pairs[:, 1, :3, 3]
-  np.testing.assert_allclose(np.linalg.norm(pa, axis=-1), 4.0, rtol=1e-9)
-  np.testing.assert_allclose(np.linalg.norm(pb, axis=-1), 4.0, rtol=1e-9)
-  elev = np.degrees(np.arcsin(pa[:, 2] / 4.0))
-  assert np.all((elev >= 10 - 1e-6) & (elev <= 70 + 1e-6))
-  # Same elevation, azimuth 1.5 degrees apart: the angle between them is
-  # 2 asin(cos(el) sin(0.75 deg)).
-  ang = np.degrees(np.arccos(np.clip((pa * pb).sum(-1) / 16.0, -1, 1)))
-  want = np.degrees(2 * np.arcsin(np.cos(np.radians(elev)) * np.sin(np.radians(0.75))))
-  np.testing.assert_allclose(ang, want, rtol=1e-4)
-
-
 def test_grid_is_searched_from_high_to_low_frequency():
   assert tuning.parse_grid("5:32,10:1,5:8,6:1") == [(10, 1.0), (6, 1.0), (5, 8.0), (5, 32.0)]
   with pytest.raises(ValueError, match="expected 'L:s"):
@@ -79,7 +62,7 @@ def test_grid_is_searched_from_high_to_low_frequency():
 
 def _tiny_tune(config, scene_root, grid, threshold):
   config.data.root = scene_root
-  config.tune.update(grid=grid, threshold=threshold, num_pairs=2, lo_steps=4)
+  config.tune.update(grid=grid, threshold=threshold, num_pairs=2, lo_steps=4, size=16)
   return config
 
 

@@ -191,7 +191,8 @@ RULES = [
      r"hi.sampler.kind='depth_guided' .* data.kind='dnerf'"),
     (_set(_dnerf, stages="lo,ray,hi"), r"ray.kind='ray_field' .*|the ray field has no time input"),
     (_set(_knights, hi__sampler__kind="coarse_fine"), r"light fields use one of"),
-    (_set(_llff, lo__encoding__auto=True), r"lo.encoding.auto=True: the frequency search .*'llff'"),
+    (_set(_knights, lo__encoding__auto=True),
+     r"lo.encoding.auto=True: the frequency rule picks Lo-NeRF's P.E., .*'stanford_lf'"),
     (_set(tiny_config, hi__kind="nerf"), r"hi.kind='nerf' is not a known stage trainer"),
     (_set(tiny_config, final_stage="out"), r"final_stage='out': must be one of"),
 ]
@@ -210,6 +211,23 @@ def test_every_shipped_config_validates():
             dnerf.get_config("lego"), stanford_lf.get_config("knights")):
     for name in ("halo", "nerf_tuned"):
       validate.validate(methods.apply(c, name))
+
+
+def test_auto_frequency_is_accepted_for_every_kind_with_a_lo_nerf():
+  from configs import dnerf, llff
+  for c in (llff.get_config("fern_4view_cpu"), dnerf.get_config("hook_cpu"), tiny_config()):
+    c.lo.encoding.auto = True
+    validate.validate(methods.apply(c, "halo"))
+
+
+def test_auto_frequency_on_a_light_field_is_refused_before_any_work(tmp_path):
+  from halo_jax import pipeline  # pylint: disable=g-import-not-at-top
+  c = _knights()
+  c.lo.encoding.auto = True
+  c.data.root = str(tmp_path / "no_such_scene")  # nothing is read before the refusal
+  with pytest.raises(ConfigError, match=r"lo.encoding.auto=True"):
+    pipeline.run(c, str(tmp_path / "run"))
+  assert not os.path.exists(tmp_path / "run" / "tune")
 
 
 def test_llff_with_empty_loss_is_refused_before_any_work(tmp_path):
