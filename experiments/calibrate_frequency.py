@@ -30,12 +30,16 @@ from experiments import suites  # pylint: disable=g-import-not-at-top
 from halo_jax import calibration, defaults, methods, provenance, runs  # pylint: disable=g-import-not-at-top
 
 FLAGS = flags.FLAGS
-flags.DEFINE_string("results", os.path.join(REPO, "results", "frequency"), "Result files.")
-flags.DEFINE_string("scratch", "/tmp/halo_calibrate", "Grid points' workdirs.")
-flags.DEFINE_string("docs", os.path.join(REPO, "docs", "results"), "Report folder.")
-flags.DEFINE_string("only", "", "Scenes whose name matches this regex.")
-flags.DEFINE_integer("lo_steps", 300, "Training steps of each grid point's Lo-NeRF.")
-flags.DEFINE_bool("report_only", False, "Write the report from the result files; train nothing.")
+
+
+def define_flags():
+  """Defined on launch, not on import (tests import several experiments)."""
+  flags.DEFINE_string("results", os.path.join(REPO, "results", "frequency"), "Result files.")
+  flags.DEFINE_string("scratch", "/tmp/halo_calibrate", "Grid points' workdirs.")
+  flags.DEFINE_string("docs", os.path.join(REPO, "docs", "results"), "Report folder.")
+  flags.DEFINE_string("only", "", "Scenes whose name matches this regex.")
+  flags.DEFINE_integer("lo_steps", 300, "Training steps of each grid point's Lo-NeRF.")
+  flags.DEFINE_bool("report_only", False, "Write the report from the result files; train nothing.")
 
 # Scenes with a Lo-NeRF stage (the light field's HALO has none: the rule
 # does not apply to it, and `auto` refuses it).
@@ -170,4 +174,5 @@ def main(argv):
 
 
 if __name__ == "__main__":
+  define_flags()
   app.run(main)

@@ -217,7 +217,7 @@ def readme_block(all_suites):
   lines = ["| suite | scene | " + " | ".join(METHOD_ORDER) + " |",
            "|---|---|" + "---|" * len(METHOD_ORDER)]
   for (suite, mode), scenes in sorted(all_suites.items()):
-    if suite == "smoke":
+    if suite in ("smoke", "auto"):
       continue
     for scene in sorted(scenes):
       by = scenes[scene]

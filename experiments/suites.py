@@ -70,4 +70,15 @@ SMOKE = Suite(
     scenes=(Scene("spheres", "configs/procedural.py:spheres_8view_cpu", 1,
                   methods=("nerf_tuned", "halo")),))
 
-SUITES = {"cpu": CPU, "smoke": SMOKE}
+# The frequency rule's choice against the hand-set CPU config: halo_auto here,
+# halo from the CPU suite (the same budget, cores and overrides).
+AUTO = Suite(
+    description=(
+        "HALO with Lo-NeRF's frequency chosen by the frequency rule (halo_auto), on the CPU "
+        "suite's terms; compared with the CPU suite's hand-set halo runs."),
+    cores=CPU.cores, budget_s=CPU.budget_s, steps=CPU.steps, curve_points=CPU.curve_points,
+    overrides=CPU.overrides,
+    scenes=(Scene("lego_8view", "configs/blender.py:lego_8view_cpu", 2, "nerf_synthetic/lego",
+                  ("halo_auto",)),))
+
+SUITES = {"cpu": CPU, "smoke": SMOKE, "auto": AUTO}

@@ -1,7 +1,7 @@
 """Chooses Lo-NeRF's P.E. frequency (L, s) with the frequency criterion.
 
   python experiments/tune_frequency.py --config=configs/blender.py:lego_8view_cpu \
-      --workdir=DIR [--full_grid] [--config.tune.grid=10:1,5:8,5:32] [--config.tune.lo_seconds=90]
+      --workdir=DIR [--full_grid] [--config.tune.grid=10:1,5:8,5:32] [--config.tune.lo_steps=300]
 
 Trains a short Lo-NeRF per point of `config.tune.grid`, from the highest
 frequency 2^(L-1)/s to the lowest, computes the criterion on pairs of nearby
@@ -32,7 +32,7 @@ def report(result, workdir):
   """Writes results.md and criterion_vs_psnr.png; returns the table."""
   chosen = (result["chosen"]["L"], result["chosen"]["scale"])
   best = max((g for g in result["grid"] if g["psnr"] is not None), key=lambda g: g["psnr"])
-  lines = ["| L | s | max freq 2^(L-1)/s | criterion | held-out PSNR | SSIM | train s | |",
+  lines = ["| L | s | max freq 2^(L-1)/s | rho | held-out PSNR | SSIM | train s | |",
            "|---|---|---|---|---|---|---|---|"]
   for g in result["grid"]:
     mark = []
@@ -40,7 +40,7 @@ def report(result, workdir):
       mark.append("chosen")
     if g is best:
       mark.append("best PSNR")
-    lines.append(f"| {g['L']} | {g['scale']:g} | {g['max_freq']:g} | {g['criterion']:.2f} | "
+    lines.append(f"| {g['L']} | {g['scale']:g} | {g['max_freq']:g} | {g['criterion']:.4f} | "
                  f"{g['psnr']:.2f} | {g['ssim']:.3f} | {g['wall_s']:.0f} | {', '.join(mark)} |")
   chosen_psnr = next(g["psnr"] for g in result["grid"] if (g["L"], g["scale"]) == chosen)
   lines.append("")

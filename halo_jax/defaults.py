@@ -202,7 +202,7 @@ def _tune():
       shift_px=1.0,          # pair baseline: median displacement of the surface, in those pixels
       mask_fraction=0.01,    # share of the largest spectrum coefficients dropped (beside DC)
       seed=0,
-      lo_seconds=0.0,        # training time of each short Lo-NeRF (0: lo.max_seconds)
+      lo_seconds=0.0,        # time cap of each short Lo-NeRF (0: none)
       lo_steps=0,            # step cap of each short Lo-NeRF (0: lo.steps)
   ))
 
@@ -305,6 +305,9 @@ def cpu_sized(c: ml_collections.ConfigDict, budget_s: float) -> ml_collections.C
   c.ray.update(batch_rays=2048, steps=3000, bank_rays=32768, checkpoint_every=1000,
                log_every=100)
   c.hi.encoding.with_lo = True
+  # The frequency search's short Lo-NeRFs: the length its threshold was
+  # calibrated at (experiments/calibrate_frequency.py).
+  c.tune.lo_steps = 300
   c.hi.init_from_lo = True
   c.hi.sampler.num_samples = 32
   c.hi.empty.update(num_rays=256, num_samples=32, bank_rays=32768)

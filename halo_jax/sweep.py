@@ -102,7 +102,8 @@ def run_point(config, point, workdir, dataset, with_criterion):
          "wall_s": sum(i["wall_s"] for i in infos.values()), "criterion": None}
   if with_criterion and "lo" in infos:
     lo = stages.load(wd, "lo", radiance.init_params(c, "lo", dataset))
-    row["criterion"] = tuning.lo_criterion(lo, dataset, c.tune, c.eval.chunk)["criterion"]
+    render = tuning.lo_renderer(c, dataset, lo)
+    row["criterion"] = tuning.criterion_of(render, dataset, c)["criterion"]
   return row
 
 
@@ -111,7 +112,7 @@ def report(rows, workdir):
   lines = ["| point | criterion | held-out PSNR | SSIM | LPIPS | train s |",
            "|---|---|---|---|---|---|"]
   for r in rows:
-    lines.append(f"| {r['label']} | {fmt(r['criterion'], '.2f')} | {fmt(r['psnr'], '.2f')} | "
+    lines.append(f"| {r['label']} | {fmt(r['criterion'], '.3f')} | {fmt(r['psnr'], '.2f')} | "
                  f"{fmt(r['ssim'], '.3f')} | {fmt(r['lpips'], '.3f')} | {r['wall_s']:.0f} |")
   table = "\n".join(lines) + "\n"
   with open(os.path.join(workdir, "results.md"), "w") as f:

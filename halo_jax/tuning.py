@@ -68,8 +68,10 @@ def point_config(config, L, scale):
   c.budget_s = 0.0
   c.lo.encoding.L, c.lo.encoding.scale = int(L), float(scale)
   c.lo.encoding.auto = False
-  if c.tune.lo_seconds:
-    c.lo.max_seconds = c.tune.lo_seconds
+  # The points train as the threshold was calibrated: lo_steps steps, with no
+  # time cap unless lo_seconds sets one (a launch's budget does not apply).
+  c.lo.max_seconds = float(c.tune.lo_seconds)
+  c.lo.eval_every_s = 0.0
   if c.tune.lo_steps:
     c.lo.steps = c.tune.lo_steps
   return c

@@ -1,0 +1,12 @@
+"""HALO with Lo-NeRF's P.E. frequency chosen by the frequency rule
+(halo_jax/tuning.py) instead of set by hand: the search runs once in the
+run's workdir before training, outside the training budget."""
+from halo_jax.methods import base
+
+
+def _auto(c):
+  c.lo.encoding.auto = True
+  return c
+
+
+METHOD = base.Method("HALO, Lo-NeRF's frequency chosen by the frequency rule", _auto)
