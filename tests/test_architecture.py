@@ -5,7 +5,7 @@ import pathlib
 
 import pytest
 
-from halo_jax import datasets, models, samplers
+from halo_jax import datasets, models, samplers, view_pairs
 from halo_jax.methods import METHODS
 from halo_jax.stages import base, terms
 
@@ -18,10 +18,10 @@ LAYERS = (
      "losses", "metrics", "lightfield", "frequency", "plots", "provenance",
      "tensorboard", "video", "config_files"},
     {"models", "ray_fields", "datasets", "checkpoint", "parallel", "evaluate", "defaults",
-     "camera_paths",
+     "camera_paths", "view_pairs",
      "workdir_lock"},
     {"stages", "tuning", "validate", "methods", "stability", "pipeline", "user_errors",
-     "restore", "runs"},
+     "restore", "runs", "calibration"},
     {"main", "render.__main__", "evaluate.__main__", "compare", "sweep"},
 )
 
@@ -136,7 +136,8 @@ def test_modules_and_functions_stay_small():
     (terms.TERMS, {"consist", "empty", "occlusion", "lf_consist", "lf_nerf_consist", "lf_color",
                    "lf_random"}),
     (base.TRAINERS, {"radiance", "ray_field", "light_field"}),
-    (METHODS, {"halo", "nerf_tuned", "nerf_paper", "freenerf", "halo+freenerf"}),
+    (METHODS, {"halo", "nerf_tuned", "nerf_paper", "freenerf", "halo+freenerf", "halo_auto"}),
+    (view_pairs.PAIR_KINDS, {"orbit", "orbit_time", "spiral", "uv"}),
 ])
 def test_registries_hold_every_entry(registry, expected):
   import halo_jax.pipeline  # noqa: F401  (registers the stage trainers)
