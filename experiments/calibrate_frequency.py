@@ -96,7 +96,33 @@ def load_results(results):
   return out
 
 
-def report(scenes, docs):
+def auto_section(runs_root):
+  """Markdown lines: halo_auto (suite 'auto') against the CPU suite's hand-set
+  halo, per scene and seed, from the benchmark's result files."""
+  import glob  # pylint: disable=g-import-not-at-top
+  rows = []
+  for path in sorted(glob.glob(os.path.join(runs_root, "auto", "time", "*", "halo_auto",
+                                            "seed*.json"))):
+    scene, seed = path.split(os.sep)[-3], os.path.basename(path)[:-5]
+    with open(path) as f:
+      auto = json.load(f)
+    hand_path = os.path.join(runs_root, "cpu", "time", scene, "halo", f"{seed}.json")
+    hand = json.load(open(hand_path)) if os.path.exists(hand_path) else None
+    ch = auto.get("frequency_rule", {}).get("chosen", {})
+    rows.append(f"| {scene} | {seed} | {ch.get('L')}:{ch.get('scale', 0):g} | "
+                f"{auto['psnr']:.2f} | " + (f"{hand['psnr']:.2f} | {auto['psnr'] - hand['psnr']:+.2f} |"
+                                            if hand else "not run | |"))
+  if not rows:
+    return []
+  return ["## `auto` against the hand-set CPU config", "",
+          "HALO with the rule's choice (`halo_auto`, `results/auto/time/`) and with the hand-set "
+          "Lo frequency (`halo`, `results/cpu/time/`), the same budget, core and seed; the "
+          "search's own training is outside the budget.", "",
+          "| scene | seed | chosen L:s | auto PSNR | hand-set PSNR | auto - hand-set |",
+          "|---|---|---|---|---|---|"] + rows + [""]
+
+
+def report(scenes, docs, runs_root=None):
   """Writes frequency_calibration.md (+ PNG); returns (markdown, frozen threshold)."""
   from halo_jax import plots  # pylint: disable=g-import-not-at-top
   loo = calibration.leave_one_out(scenes)
@@ -125,6 +151,8 @@ def report(scenes, docs):
   lines += ["", f"Leave-one-out: {within} of {len(regrets)} picks within 1 dB of their scene's "
             f"best grid point; mean distance {sum(regrets) / len(regrets):.2f} dB, "
             f"largest {max(regrets):.2f} dB.", ""]
+  if runs_root:
+    lines += auto_section(runs_root)
   for name, s in scenes.items():
     lines += [f"## {name}", "",
               f"`{s['config']}`, Lo-NeRF {s['lo_steps']} steps per point, pairs "
@@ -168,7 +196,7 @@ def main(argv):
           for g in r["grid"]), flush=True)
   scenes = load_results(FLAGS.results)
   if len(scenes) >= 2:
-    text, tau = report(scenes, FLAGS.docs)
+    text, tau = report(scenes, FLAGS.docs, os.path.dirname(FLAGS.results))
     print(text.split("\n## ")[0])
     print(f"frozen threshold: {tau:.4g}")
 

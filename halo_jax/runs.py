@@ -65,7 +65,21 @@ def run_method(config, workdir, dataset=None) -> dict:
                          **({"psnr": i["eval"]["psnr"]} if "eval" in i else {})}
                      for n, i in infos.items()},
           "curve": read_curve(workdir),
+          **_frequency_choice(workdir),
           "provenance": provenance.collect()}
+
+
+def _frequency_choice(workdir):
+  """{'frequency_rule': {'chosen', 'note', 'grid'}} where the run searched Lo's
+  frequency (lo.encoding.auto), else {}."""
+  path = os.path.join(workdir, "tune", "results.json")
+  if not os.path.exists(path):
+    return {}
+  with open(path) as f:
+    r = json.load(f)
+  return {"frequency_rule": {"chosen": r["chosen"], "note": r.get("note", ""),
+                             "grid": [{k: g[k] for k in ("L", "scale", "criterion", "psnr")}
+                                      for g in r["grid"]]}}
 
 
 def seconds_to_reach(records, level):
