@@ -168,7 +168,8 @@ def report(scenes, docs, runs_root=None):
                              [g["criterion"] for g in s["grid"]],
                              [g["psnr"] for g in s["grid"]], os.path.join(docs, png),
                              threshold=frozen["threshold"],
-                             xlabel="Lo-NeRF P.E. L:s (high to low frequency)")
+                             xlabel="Lo-NeRF P.E. L:s (high to low frequency)",
+                             psnr_label="Lo-NeRF held-out PSNR (dB)", title=name)
     lines += ["", f"![{name}]({png})", ""]
   text = "\n".join(lines) + "\n"
   with open(os.path.join(docs, "frequency_calibration.md"), "w") as f:
