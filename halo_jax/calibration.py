@@ -14,6 +14,19 @@ import numpy as np
 from halo_jax import tuning
 
 
+def scored(scenes: Dict[str, dict], relative: bool, key: str = "criterion") -> Dict[str, dict]:
+  """The scenes with each row's 'criterion' taken from `key` (e.g.
+  'criterion_warped') and its 'score', what the threshold is compared with
+  (tuning.score)."""
+  out = {}
+  for name, s in scenes.items():
+    first = s["grid"][0][key]
+    grid = [dict(r, criterion=r[key], score=tuning.score(r[key], first, relative))
+            for r in s["grid"]]
+    out[name] = dict(s, grid=grid)
+  return out
+
+
 def pick(rows: Sequence[dict], tau: float, hi_freq: float) -> dict:
   """The grid row the rule chooses at threshold tau."""
   grid = [(r["L"], r["scale"]) for r in rows]
@@ -29,7 +42,7 @@ def regret(rows: Sequence[dict], tau: float, hi_freq: float) -> float:
 def candidates(scenes: Dict[str, dict]) -> List[float]:
   """Thresholds worth trying: between consecutive criterion values seen in
   `scenes`, and beyond both ends."""
-  values = sorted({r["criterion"] for s in scenes.values() for r in s["grid"]})
+  values = sorted({r.get("score", r["criterion"]) for s in scenes.values() for r in s["grid"]})
   mids = [(a + b) / 2 for a, b in zip(values[:-1], values[1:])]
   return [values[0] * 0.5] + mids + [values[-1] * 1.5]
 

@@ -197,6 +197,10 @@ def _tune():
       # on rho (frequency.relative_spectrum_difference), calibrated by
       # leave-one-scene-out (experiments/calibrate_frequency.py)
       threshold=0.25,
+      # warp: compare a with b resampled onto a by Lo's depth (view_pairs.warp_onto),
+      # so that rho sees what the camera move does not explain
+      warp=False,
+      relative=False,        # compare rho / rho at the grid's first point (Hi's frequency) instead
       num_pairs=8,           # nearby view pairs rendered per point
       size=64,               # criterion resolution: the renders' short side in pixels
       shift_px=1.0,          # pair baseline: median displacement of the surface, in those pixels

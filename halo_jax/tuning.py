@@ -47,16 +47,20 @@ def lo_renderer(lo_config, dataset, lo_state):
 
 def criterion_of(render, dataset, config) -> dict:
   """rho of `render` (a finished Lo field) on the scene's view pairs:
-  {'criterion', 'per_pair', 'shift_px', 'steps', 'pair_kind'}."""
+  {'criterion' (the form config.tune.warp selects), 'criterion_plain',
+  'criterion_warped', 'per_pair', 'shift_px', 'steps', 'pair_kind'}."""
   t = config.tune
   bounds = None
   if dataset.geometry == Geometry.NDC:
     bounds = llff.read_poses(config.data.root)[3]
   pairs = view_pairs.make(render, dataset, t.num_pairs, t.size, t.shift_px, t.seed,
                           config.eval.chunk, bounds)
-  per_pair = [float(frequency.relative_spectrum_difference(
-      pairs["a"][i:i + 1], pairs["b"][i:i + 1], t.mask_fraction)) for i in range(len(pairs["a"]))]
+  rho = lambda b: [float(frequency.relative_spectrum_difference(
+      pairs["a"][i:i + 1], b[i:i + 1], t.mask_fraction)) for i in range(len(b))]
+  plain, warped = rho(pairs["b"]), rho(pairs["b_warped"])
+  per_pair = warped if t.get("warp", False) else plain
   return {"criterion": float(np.mean(per_pair)), "per_pair": per_pair,
+          "criterion_plain": float(np.mean(plain)), "criterion_warped": float(np.mean(warped)),
           "shift_px": [float(x) for x in pairs["shift_px"]],
           "steps": [float(x) for x in pairs["steps"]], "pair_kind": pairs["kind"]}
 
@@ -102,10 +106,14 @@ def tune(config, workdir: str, dataset, run_stages, full_grid: bool = False) -> 
     ev = info.get("eval", {})
     grid.append({"L": L, "scale": s, "max_freq": 2.0 ** (L - 1) / s,
                  "criterion": crit["criterion"], "per_pair": crit["per_pair"],
+                 "criterion_plain": crit["criterion_plain"],
+                 "criterion_warped": crit["criterion_warped"],
                  "shift_px": crit["shift_px"], "pair_kind": crit["pair_kind"],
                  "psnr": ev.get("psnr"), "ssim": ev.get("ssim"), "lpips": ev.get("lpips"),
                  "wall_s": info["wall_s"], "steps": info["step"]})
-    if chosen is None and crit["criterion"] < t.threshold:
+    row = grid[-1]
+    row["score"] = score(row["criterion"], grid[0]["criterion"], t.get("relative", False))
+    if chosen is None and row["score"] < t.threshold:
       chosen = {"L": L, "scale": s}
       if not full_grid:
         break
@@ -118,13 +126,20 @@ def tune(config, workdir: str, dataset, run_stages, full_grid: bool = False) -> 
   return result
 
 
+def score(criterion: float, first: float, relative: bool) -> float:
+  """What the threshold is compared with: rho itself, or (relative) rho over
+  the rho of the grid's first point, Hi-NeRF's frequency."""
+  return criterion / max(first, 1e-12) if relative else criterion
+
+
 def _fmt(L, s):
   return f"L={L}, s={s:g}"
 
 
 def decide(rows, grid, threshold, hi_freq):
   """The search's choice from the scored points `rows` (high to low frequency,
-  each with L, scale, criterion) out of `grid` (parse_grid order).
+  each with L, scale, criterion and optionally the score the threshold is
+  compared with, else the criterion) out of `grid` (parse_grid order).
 
   The first point below the threshold, except that the rule never hands back
   Hi-NeRF's frequency (2^(L-1)/s >= hi_freq) unannounced: when the first
@@ -133,14 +148,15 @@ def decide(rows, grid, threshold, hi_freq):
   lowest-frequency point. Returns ({'L', 'scale'}, {'below_threshold',
   'text'}), text '' for a plain pick and a sentence otherwise.
   """
-  passing = [i for i, r in enumerate(rows) if r["criterion"] < threshold]
+  crit = lambda r: r.get("score", r["criterion"])
+  passing = [i for i, r in enumerate(rows) if crit(r) < threshold]
   freq = lambda L, s: 2.0 ** (L - 1) / s
   if not passing:
     L, s = grid[-1]
-    low = min(rows, key=lambda r: r["criterion"])
+    low = min(rows, key=crit)
     return {"L": L, "scale": s}, {"below_threshold": False, "text": (
         f"no grid point fell below the threshold {threshold:g} (lowest criterion "
-        f"{low['criterion']:.4g} at {_fmt(low['L'], low['scale'])}); chose the lowest-frequency "
+        f"{crit(low):.4g} at {_fmt(low['L'], low['scale'])}); chose the lowest-frequency "
         f"point {_fmt(L, s)}")}
   first = rows[passing[0]]
   pick = {"L": first["L"], "scale": first["scale"]}
@@ -152,11 +168,11 @@ def decide(rows, grid, threshold, hi_freq):
     return {"L": L, "scale": s}, {"below_threshold": True, "text": (
         f"the first grid point {_fmt(first['L'], first['scale'])} (Hi-NeRF's frequency or "
         f"above) already passed the threshold {threshold:g} (criterion "
-        f"{first['criterion']:.4g}), so the grid does not bracket this scene's answer; chose "
+        f"{crit(first):.4g}), so the grid does not bracket this scene's answer; chose "
         f"{_fmt(L, s)}, the highest grid point below Hi-NeRF's frequency")}
   return pick, {"below_threshold": True, "text": (
       f"the first grid point {_fmt(first['L'], first['scale'])} already passed the threshold "
-      f"{threshold:g} (criterion {first['criterion']:.4g}): the grid may not reach high "
+      f"{threshold:g} (criterion {crit(first):.4g}): the grid may not reach high "
       "enough to bracket this scene's answer")}
 
 

@@ -51,14 +51,14 @@ class PairKind:
 
   base(dataset, num, size, rng, bounds) -> Views at the criterion size
   move(views, steps [N]) -> the same Views moved by `steps` (kind's units)
-  shift(views_a, views_b, render_a, dataset) -> [N] median pixel displacement
-    of a's surface seen from b
+  flow(views_a, views_b, render_a, dataset) -> [N, h, w, 2] where each pixel
+    of a (its surface, by a's depth) lands in b, in b's pixel coordinates
   probe: the step whose displacement is measured to scale the real step
   max_step: the largest step used (an empty render has no displacement)
   """
   base: Callable
   move: Callable
-  shift: Callable
+  flow: Callable
   probe: float
   max_step: float
   unit: str
@@ -134,14 +134,25 @@ def camera_rays(views):
   return Views.rays(views)
 
 
-def _shift_3d(ndc):
-  def shift(a, b, render_a, dataset):
+def pixel_centres(n, h, w):
+  """[n, h, w, 2] (x, y) pixel centres."""
+  i, j = np.meshgrid(np.arange(w) + 0.5, np.arange(h) + 0.5, indexing="xy")
+  return np.broadcast_to(np.stack([i, j], -1), (n, h, w, 2))
+
+
+def _flow_3d(ndc):
+  def flow(a, b, render_a, dataset):
     del dataset
     pts = world_points(a, render_a, ndc)
-    pa = project(a.c2w, a.focal, a.height, a.width, pts)
-    pb = project(b.c2w, b.focal, b.height, b.width, pts)
-    return _median_shift(pa, pb, np.asarray(render_a["acc"]))
-  return shift
+    return project(b.c2w, b.focal, b.height, b.width, pts)
+  return flow
+
+
+def median_shift(a, landed, render_a):
+  """[N] median displacement |landed - pixel centre| over a's pixels with
+  opacity > 0.5 (all pixels where none is)."""
+  pa = pixel_centres(len(landed), a.height, a.width)
+  return _median_shift(pa, landed, np.asarray(render_a["acc"]))
 
 
 def _sized(views, size):
@@ -177,7 +188,7 @@ def _orbit_move(views, steps):
 
 
 for _name in ("orbit", "orbit_time"):
-  PAIR_KINDS.register(_name, PairKind(_orbit_base, _orbit_move, _shift_3d(False),
+  PAIR_KINDS.register(_name, PairKind(_orbit_base, _orbit_move, _flow_3d(False),
                                       probe=0.5, max_step=10.0, unit="degrees of azimuth"))
 
 
@@ -205,7 +216,7 @@ def _spiral_move(views, steps):
       views.spiral_c2w, views.bounds, phases))
 
 
-PAIR_KINDS.register("spiral", PairKind(_spiral_base, _spiral_move, _shift_3d(True),
+PAIR_KINDS.register("spiral", PairKind(_spiral_base, _spiral_move, _flow_3d(True),
                                        probe=0.02, max_step=1.0, unit="radians along the spiral"))
 
 
@@ -226,25 +237,47 @@ def _uv_move(views, steps):
   return dataclasses.replace(views, uv=uv.astype(np.float32))
 
 
-def _uv_shift(a, b, render_a, dataset):
+def _uv_flow(a, b, render_a, dataset):
   """A ray's point at EPI angle theta moves cot(theta) in s per unit of u;
-  s spans the image's width (2 units over W pixels)."""
+  s spans the image's width (2 units over W pixels). The sign follows the
+  two-plane rays: the point s' = s + u cot(theta) stays put, so s moves by
+  -du cot(theta)."""
   theta = lightfield.theta_of_tau(np.asarray(render_a["depth"]), dataset.near, dataset.far)
-  du = np.abs(np.asarray(b.uv)[:, 0] - np.asarray(a.uv)[:, 0])
-  shift = (du[:, None, None] / np.tan(theta)) * a.width / 2.0
-  acc = np.asarray(render_a["acc"])
-  out = []
-  for s, ac in zip(shift, acc):
-    seen = ac > 0.5
-    out.append(float(np.median(s[seen] if seen.any() else s)))
-  return np.asarray(out)
+  du = np.asarray(b.uv)[:, 0] - np.asarray(a.uv)[:, 0]
+  landed = np.array(pixel_centres(len(du), a.height, a.width))
+  landed[..., 0] -= du[:, None, None] / np.tan(theta) * a.width / 2.0
+  return landed
 
 
-PAIR_KINDS.register("uv", PairKind(_uv_base, _uv_move, _uv_shift, probe=0.01, max_step=0.5,
+PAIR_KINDS.register("uv", PairKind(_uv_base, _uv_move, _uv_flow, probe=0.01, max_step=0.5,
                                    unit="camera-plane units along u"))
 
 
 # ---------------------------------------------------------------- the pairs
+
+
+def warp_onto(rgb_a, rgb_b, landed, acc_a):
+  """b's render resampled where a's surface landed in b: [N, h, w, 3].
+
+  Bilinear at `landed` (b's pixel coordinates) where a's opacity is > 0.5
+  and the point lands inside b; b's own pixel where a sees empty space (the
+  background is fixed in image space, and a floater there is what the
+  criterion should see); a's pixel where the point leaves b's frame.
+  """
+  n, h, w, _ = rgb_b.shape
+  x = landed[..., 0] - 0.5
+  y = landed[..., 1] - 0.5
+  inside = np.isfinite(x) & np.isfinite(y) & (x >= 0) & (x <= w - 1) & (y >= 0) & (y <= h - 1)
+  x = np.clip(np.nan_to_num(x), 0, w - 1)
+  y = np.clip(np.nan_to_num(y), 0, h - 1)
+  x0, y0 = np.floor(x).astype(int), np.floor(y).astype(int)
+  x1, y1 = np.minimum(x0 + 1, w - 1), np.minimum(y0 + 1, h - 1)
+  fx, fy = (x - x0)[..., None], (y - y0)[..., None]
+  idx = np.arange(n)[:, None, None]
+  sample = ((1 - fx) * (1 - fy) * rgb_b[idx, y0, x0] + fx * (1 - fy) * rgb_b[idx, y0, x1]
+            + (1 - fx) * fy * rgb_b[idx, y1, x0] + fx * fy * rgb_b[idx, y1, x1])
+  surface = (acc_a > 0.5)[..., None]
+  return np.where(surface, np.where(inside[..., None], sample, rgb_a), rgb_b).astype(np.float32)
 
 
 def make(render, dataset, num: int, size: int, shift_px: float, seed: int, chunk: int,
@@ -259,7 +292,8 @@ def make(render, dataset, num: int, size: int, shift_px: float, seed: int, chunk
     bounds: [N, 2] depth bounds (forward-facing scenes only).
 
   Returns:
-    {'a', 'b': [num, h, w, 3] renders; 'steps': [num] (kind's units),
+    {'a', 'b': [num, h, w, 3] renders; 'b_warped': b resampled onto a by a's
+     depth (warp_onto); 'steps': [num] (kind's units),
      'shift_px': [num] measured displacement of each pair; 'kind', 'unit'}.
   """
   name = kind_name(dataset.geometry, dataset.dynamic)
@@ -268,14 +302,18 @@ def make(render, dataset, num: int, size: int, shift_px: float, seed: int, chunk
   base = kind.base(dataset, num, size, rng, bounds)
   ra = evaluate.render_views(render, base, chunk)
   probe = kind.move(base, np.full(num, kind.probe))
-  per_probe = kind.shift(base, probe, ra, dataset) / kind.probe
+  shift = lambda moved: median_shift(base, kind.flow(base, moved, ra, dataset), ra)
+  per_probe = shift(probe) / kind.probe
   steps = np.where(per_probe > 1e-9, shift_px / np.maximum(per_probe, 1e-9), kind.max_step)
   steps = np.minimum(steps, kind.max_step)
   for _ in range(3):  # displacement is not quite linear along a curved path: rescale
-    got = kind.shift(base, kind.move(base, steps), ra, dataset)
+    got = shift(kind.move(base, steps))
     steps = np.minimum(np.where(got > 1e-9, steps * shift_px / np.maximum(got, 1e-9), steps),
                        kind.max_step)
   moved = kind.move(base, steps)
   rb = evaluate.render_views(render, moved, chunk)
-  return {"a": np.asarray(ra["rgb"]), "b": np.asarray(rb["rgb"]), "steps": steps,
-          "shift_px": kind.shift(base, moved, ra, dataset), "kind": name, "unit": kind.unit}
+  landed = kind.flow(base, moved, ra, dataset)
+  a, b = np.asarray(ra["rgb"]), np.asarray(rb["rgb"])
+  return {"a": a, "b": b, "b_warped": warp_onto(a, b, landed, np.asarray(ra["acc"])),
+          "steps": steps, "shift_px": median_shift(base, landed, ra), "kind": name,
+          "unit": kind.unit}

@@ -64,15 +64,17 @@ def test_frequency_calibration_report_from_result_files(tmp_path):
   for name, crit, psnr in (("a", [0.9, 0.7, 0.5, 0.3], [18, 19, 21, 20]),
                            ("b", [0.8, 0.65, 0.45, 0.3], [18, 19, 22, 20]),
                            ("c", [0.95, 0.75, 0.52, 0.4], [18, 19, 23, 21])):
-    grid = [{"L": L, "scale": s, "max_freq": 2.0 ** (L - 1) / s, "criterion": c, "psnr": p,
+    grid = [{"L": L, "scale": s, "max_freq": 2.0 ** (L - 1) / s, "criterion": c,
+             "criterion_plain": c, "criterion_warped": c / 2, "psnr": p,
              "ssim": 0.5, "shift_px": [1.0, 1.0], "pair_kind": "orbit"}
             for (L, s), c, p in zip(points, crit, psnr)]
     with open(results / f"{name}.json", "w") as f:
       json.dump({"scene": name, "config": "configs/x.py:y", "lo_steps": 10, "hi_freq": 512.0,
                  "hand_set": {"L": 5, "scale": 1.0}, "grid": grid}, f)
   scenes = calibrate_frequency.load_results(str(results))
-  text, tau = calibrate_frequency.report(scenes, docs)
-  assert 0.52 < tau <= 0.65
-  assert "3 of 3 picks within 1 dB" in text
+  text, frozen = calibrate_frequency.report(scenes, docs)
+  # every form agrees (warped = plain / 2 scores the same); the first, plain rho, is frozen
+  assert not frozen["warp"] and not frozen["relative"] and 0.52 < frozen["threshold"] <= 0.65
+  assert "3 of 3 picks within 1 dB" in text and "### Leave-one-out, warped rho" in text
   assert "| c | 0.575 | 5:1 | 23.00 | 5:1 | 23.00 | 0.00 | 5:1 |" in text
   assert os.path.exists(os.path.join(docs, "frequency_a.png"))

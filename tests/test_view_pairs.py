@@ -114,3 +114,26 @@ def test_spiral_pairs_reach_the_pixel_baseline():
 def test_no_pairs_for_a_dynamic_light_field():
   with pytest.raises(ValueError, match="no view pairs for dynamic scenes"):
     view_pairs.kind_name(Geometry.TWO_PLANE, True)
+
+
+def test_warping_b_onto_a_removes_what_the_camera_move_explains():
+  """A light field of a plane at one EPI angle whose colour is linear in the
+  plane's coordinate s': b resampled onto a is a (bilinear is exact on a
+  linear image), away from the frame's edge, while b itself is shifted."""
+  h, w, n, theta = 16, 24, 3, 1.2
+  uv = np.array([[-1, -1], [1, -1], [-1, 1], [1, 1]], np.float32) * 0.5
+  train = LightFieldViews(np.zeros((4, h, w, 3), np.float32), uv, tuple("abcd"))
+  ds = Dataset(train, train, 1.1, 1.3, 0.0, False, Geometry.TWO_PLANE)
+
+  def render(o, d, t=None):
+    del t
+    s_plane = d[..., 0] + o[..., 0] / np.tan(theta)        # s' = s + u cot(theta)
+    rgb = np.repeat((0.5 + 0.2 * s_plane)[..., None], 3, -1)
+    shape = o.shape[:-1]
+    return {"rgb": rgb.astype(np.float32), "acc": np.ones(shape, np.float32),
+            "depth": np.full(shape, (theta - 1.1) / 0.2, np.float32)}
+
+  out = view_pairs.make(render, ds, num=n, size=h, shift_px=2.0, seed=0, chunk=4096)
+  inner = (slice(None), slice(None), slice(3, -3))
+  assert np.abs(out["b"] - out["a"])[inner].max() > 0.01
+  np.testing.assert_allclose(out["b_warped"][inner], out["a"][inner], atol=1e-5)
