@@ -136,7 +136,9 @@ def calibrate(scenes):
   for form, warp, relative in FORMS:
     key = "criterion_warped" if warp else "criterion_plain"
     if not all(key in r for s in scenes.values() for r in s["grid"]):
-      continue
+      if warp:
+        continue
+      key = "criterion"  # files from before the warped form: rho is the plain one
     s = calibration.scored(scenes, relative, key)
     loo = calibration.leave_one_out(s)
     out[form] = {"warp": warp, "relative": relative, "key": key, "loo": loo,
@@ -144,6 +146,21 @@ def calibrate(scenes):
                  "mean_regret": sum(r["regret"] for r in loo.values()) / len(loo)}
   best = min(out, key=lambda f: round(out[f]["mean_regret"], 6))
   return out, best
+
+
+def reference_rows(scenes):
+  """Choices that need no rule, as table rows: the grid point just below
+  Hi-NeRF's frequency everywhere, and the hand-set configs' points."""
+  def mean_distance(choose_row):
+    d = [max(r["psnr"] for r in s["grid"]) - choose_row(s)["psnr"] for s in scenes.values()]
+    return sum(d) / len(d)
+  on_grid = lambda s: next((r for r in s["grid"] if (r["L"], r["scale"]) == (
+      s["hand_set"]["L"], s["hand_set"]["scale"])), None)
+  rows = [f"| (no rule) always the grid's second point, one below Hi-NeRF's frequency | "
+          f"{mean_distance(lambda s: s['grid'][1]):.2f} | |"]
+  if all(on_grid(s) for s in scenes.values()):
+    rows.append(f"| (no rule) the hand-set CPU configs | {mean_distance(on_grid):.2f} | |")
+  return rows
 
 
 def _loo_table(scenes, loo):
@@ -203,6 +220,7 @@ def report(scenes, docs, runs_root=None):
   for form, f in forms.items():
     lines.append(f"| {form}{' (chosen)' if form == best else ''} | {f['mean_regret']:.2f} | "
                  f"{f['frozen']['threshold']:.4g} |")
+  lines += reference_rows(scenes)
   lines += ["", f"Frozen: `tune.warp={chosen['warp']}`, `tune.relative={chosen['relative']}`, "
             f"`tune.threshold={frozen:.4g}` "
             f"(chosen on all {len(scenes)} scenes; mean distance to each scene's best grid "

@@ -194,13 +194,15 @@ def _tune():
   """The frequency search (halo_jax.tuning)."""
   return ml_collections.ConfigDict(dict(
       grid="10:1,7:1,5:1,4:1,5:4,5:16",  # L:s points, searched high to low frequency
-      # on rho (frequency.relative_spectrum_difference), calibrated by
-      # leave-one-scene-out (experiments/calibrate_frequency.py)
-      threshold=0.25,
-      # warp: compare a with b resampled onto a by Lo's depth (view_pairs.warp_onto),
-      # so that rho sees what the camera move does not explain
+      # The first point whose rho (frequency.relative_spectrum_difference) is
+      # below the threshold is chosen; threshold and form were chosen by
+      # leave-one-scene-out over 8 scenes (docs/results/frequency_calibration.md).
+      threshold=0.9656,
+      # warp: compare a with b resampled onto a by Lo's depth (view_pairs.warp_onto);
+      # relative: compare rho / rho at the grid's first point (Hi's frequency).
+      # Both are off: docs/frequency.md.
       warp=False,
-      relative=False,        # compare rho / rho at the grid's first point (Hi's frequency) instead
+      relative=False,
       num_pairs=8,           # nearby view pairs rendered per point
       size=64,               # criterion resolution: the renders' short side in pixels
       shift_px=1.0,          # pair baseline: median displacement of the surface, in those pixels

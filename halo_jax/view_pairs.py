@@ -21,7 +21,9 @@ base view's surface (the field's own depth, pixels with opacity > 0.5) is
 `shift_px` pixels in a view whose short side is `size` pixels. Displacement is
 linear in the step for light fields and nearly so for the small steps used
 elsewhere: a probe step gives the scale and three rescalings correct it
-(projections only; each pair is rendered twice).
+(projections only; each pair is rendered twice). The same displacement field
+resamples b onto a (warp_onto), so that a criterion can compare only what the
+camera move does not explain.
 """
 import dataclasses
 from typing import Callable
