@@ -191,7 +191,7 @@ def _orbit_move(views, steps):
 
 for _name in ("orbit", "orbit_time"):
   PAIR_KINDS.register(_name, PairKind(_orbit_base, _orbit_move, _flow_3d(False),
-                                      probe=0.5, max_step=10.0, unit="degrees of azimuth"))
+                                      probe=0.5, max_step=30.0, unit="degrees of azimuth"))
 
 
 @dataclasses.dataclass(frozen=True)
