@@ -197,11 +197,11 @@ def _tune():
       # The first point whose rho (frequency.relative_spectrum_difference) is
       # below the threshold is chosen; threshold and form were chosen by
       # leave-one-scene-out over 8 scenes (docs/results/frequency_calibration.md).
-      threshold=0.9656,
-      # warp: compare a with b resampled onto a by Lo's depth (view_pairs.warp_onto);
+      threshold=0.8459,
+      # warp: compare a with b resampled onto a by Lo's depth (view_pairs.warp_onto),
+      # so that rho sees only what the camera move does not explain;
       # relative: compare rho / rho at the grid's first point (Hi's frequency).
-      # Both are off: docs/frequency.md.
-      warp=False,
+      warp=True,
       relative=False,
       num_pairs=8,           # nearby view pairs rendered per point
       size=64,               # criterion resolution: the renders' short side in pixels
