@@ -165,3 +165,14 @@ def test_workdir_of_another_config_is_refused(config, scene_root, tmp_path):
                      r"with another config \(2 fields differ: lo.encoding.L: 5 -> 7, "
                      r"lo.model.width: 32 -> 48\)"):
     pipeline.run(config, wd)
+
+
+def test_progress_bar_of_a_stage_resumed_past_its_budget():
+  import ml_collections  # pylint: disable=g-import-not-at-top
+  from halo_jax.stages import progress  # pylint: disable=g-import-not-at-top
+  cfg = ml_collections.ConfigDict(dict(max_seconds=10.0, batch_rays=64, steps=100))
+  bar = progress.ProgressBar("hi", cfg, start_step=50, start_wall_s=12.3)
+  bar.advance(51, 0.5, 12.8)
+  bar.set_postfix(psnr=20.0)
+  assert bar.bar.n == bar.bar.total == 10.0
+  bar.close()

@@ -11,7 +11,9 @@ class ProgressBar:
     self.rays = cfg.get("batch_rays", 0)  # 0: no rays/s shown
     self.start_step, self.start_wall = start_step, start_wall_s
     if self.timed:
-      self.bar = tqdm.tqdm(total=round(cfg.max_seconds, 1), initial=round(start_wall_s, 1),
+      # a stage resumed past its budget starts full (tqdm cannot format n > total)
+      total = round(cfg.max_seconds, 1)
+      self.bar = tqdm.tqdm(total=total, initial=min(round(start_wall_s, 1), total),
                            desc=name, unit="s", dynamic_ncols=True, mininterval=1.0,
                            bar_format="{l_bar}{bar}| {n:.0f}/{total:.0f} s "
                                       "[{elapsed}<{remaining}{postfix}]")
