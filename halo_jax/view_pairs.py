@@ -105,18 +105,6 @@ def project(c2w, focal, height, width, points):
   return np.stack([px, py], -1).reshape(*shape[:-1], 2)
 
 
-def _median_shift(pa, pb, acc):
-  """Median |pb - pa| over pixels with acc > 0.5 (all pixels when none): [N]."""
-  d = np.linalg.norm(pb - pa, axis=-1)
-  out = []
-  for di, ai in zip(d, acc):
-    seen = np.isfinite(di) & (ai > 0.5)
-    if not seen.any():
-      seen = np.isfinite(di)
-    out.append(float(np.median(di[seen])) if seen.any() else 0.0)
-  return np.asarray(out)
-
-
 def world_points(views, render, ndc: bool):
   """Surface points [N, H, W, 3] in world space from a render's depth."""
   o, d = camera_rays(views)
@@ -153,8 +141,14 @@ def _flow_3d(ndc):
 def median_shift(a, landed, render_a):
   """[N] median displacement |landed - pixel centre| over a's pixels with
   opacity > 0.5 (all pixels where none is)."""
-  pa = pixel_centres(len(landed), a.height, a.width)
-  return _median_shift(pa, landed, np.asarray(render_a["acc"]))
+  d = np.linalg.norm(landed - pixel_centres(len(landed), a.height, a.width), axis=-1)
+  out = []
+  for di, ai in zip(d, np.asarray(render_a["acc"])):
+    seen = np.isfinite(di) & (ai > 0.5)
+    if not seen.any():
+      seen = np.isfinite(di)
+    out.append(float(np.median(di[seen])) if seen.any() else 0.0)
+  return np.asarray(out)
 
 
 def _sized(views, size):
