@@ -70,7 +70,7 @@ def configure(suite: suites.Suite, scene: suites.Scene, method: str, seed: int, 
   if c.data.kind == "procedural" and not c.data.root:  # generated once, shared by runs
     c.data.root = os.path.join(scratch, "scenes",
                                f"{c.data.procedural_scene}_{c.data.procedural_size}")
-  for field, value in suite.overrides:
+  for field, value in suite.overrides + scene.overrides:
     runs.set_field(c, field, value)
   names = pipeline.needed(c, c.final_stage)
   shares = {n: c.budget_shares[n] for n in names}
@@ -96,6 +96,7 @@ def run_one(suite_name, suite, scene, method, seed, mode, results, scratch) -> d
   start = time.time()
   record = runs.run_method(c, workdir)
   record.update(suite=suite_name, scene=scene.name, config=scene.config, method=method,
+                scene_overrides=[list(o) for o in scene.overrides],
                 seed=seed, mode=mode, budget_s=c.budget_s,
                 target_steps=suite.steps if mode == "steps" else None,
                 run_seconds=round(time.time() - start, 1))

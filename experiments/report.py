@@ -169,6 +169,26 @@ def over_scenes_table(scenes):
   return "\n".join(lines)
 
 
+def summary_table(scenes):
+  """One row per scene, one column per method: mean held-out PSNR (and its
+  spread over seeds), the scene's config changes where the suite made any."""
+  methods = _methods({m: 1 for by in scenes.values() for m in by})
+  changes = any(_scene_overrides(by) for by in scenes.values())
+  head = "| scene | " + ("changes to the config | " if changes else "") + " | ".join(methods)
+  lines = [head + " |", "|---|" + ("---|" if changes else "") + "---|" * len(methods)]
+  for scene in sorted(scenes):
+    by = scenes[scene]
+    cells = [stat([r["psnr"] for r in by[m]])[0] if m in by else "" for m in methods]
+    extra = [_scene_overrides(by) or "none"] if changes else []
+    lines.append(f"| {scene} | " + " | ".join(extra + cells) + " |")
+  return "\n".join(lines)
+
+
+def _scene_overrides(by_method):
+  rec = next(iter(by_method.values()))[0]
+  return ", ".join(f"`{k}={v}`" for k, v in rec.get("scene_overrides") or [])
+
+
 def provenance_lines(scenes):
   recs = [r for by in scenes.values() for rs in by.values() for r in rs]
   prov = [r.get("provenance", {}) for r in recs]
@@ -199,6 +219,7 @@ def write_suite(suite, mode, scenes, docs):
          "columns and plots use the first few held-out views (`eval.curve_views`), "
          "evaluated during training.", ""]
   out += [l for l in provenance_lines(scenes) if l] + [""]
+  out += ["## Held-out PSNR", "", summary_table(scenes), ""]
   out += ["## Over scenes", "", over_scenes_table(scenes), ""]
   for scene in sorted(scenes):
     by = scenes[scene]
@@ -206,7 +227,10 @@ def write_suite(suite, mode, scenes, docs):
     png = f"{name}_{scene}.png"
     plot_scene(by, f"{scene} ({cfg}), {mode}", os.path.join(docs, png))
     n_views = next(iter(by.values()))[0]["num_views"]
-    out += [f"## {scene}", "", f"`{cfg}`, {n_views} held-out views.", "", scene_table(by), "",
+    changes = _scene_overrides(by)
+    changes = f" Changed: {changes}." if changes else ""
+    out += [f"## {scene}", "", f"`{cfg}`, {n_views} held-out views.{changes}", "",
+            scene_table(by), "",
             f"![held-out PSNR against training seconds]({png})", ""]
   with open(os.path.join(docs, f"{name}.md"), "w") as f:
     f.write("\n".join(out))
@@ -217,7 +241,7 @@ def readme_block(all_suites):
   lines = ["| suite | scene | " + " | ".join(METHOD_ORDER) + " |",
            "|---|---|" + "---|" * len(METHOD_ORDER)]
   for (suite, mode), scenes in sorted(all_suites.items()):
-    if suite in ("smoke", "auto"):
+    if suite in ("smoke", "auto", "ingredients"):
       continue
     for scene in sorted(scenes):
       by = scenes[scene]

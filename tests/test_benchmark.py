@@ -6,6 +6,7 @@ import sys
 import pytest
 
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
+from halo_jax import runs  # pylint: disable=g-import-not-at-top
 from experiments import benchmark, suites  # pylint: disable=g-import-not-at-top
 
 
@@ -32,6 +33,31 @@ def test_modes_split_budget_and_steps_by_share(method, tmp_path):
   for n in names:
     assert stepped[n].steps == round(suites.CPU.steps * stepped.budget_shares[n] / total)
   assert abs(sum(stepped[n].steps for n in names) - suites.CPU.steps) <= len(names)
+
+
+def _value(c, dotted):
+  for part in dotted.split("."):
+    c = c[part]
+  return c
+
+
+def test_ingredient_variants_change_one_thing_to_the_other_baseline(tmp_path):
+  """Each variant's changes are the other NeRF baseline's values of those
+  fields, and the variant differs from its method nowhere else."""
+  suite = suites.INGREDIENTS
+  configs = {m: benchmark.configure(suite, suites.Scene("x", suite.scenes[0].config, 1), m, 0,
+                                    "steps", str(tmp_path)) for m in ("nerf_paper", "nerf_tuned")}
+  other = {"nerf_paper": "nerf_tuned", "nerf_tuned": "nerf_paper"}
+  for scene in suite.scenes:
+    (method,) = scene.methods
+    c = benchmark.configure(suite, scene, method, 0, "steps", str(tmp_path))
+    for field, value in scene.overrides:
+      assert _value(c, field) == value == _value(configs[other[method]], field), scene.name
+      assert _value(configs[method], field) != value, scene.name
+    base = configs[method].to_dict()
+    for field, _ in scene.overrides:  # undo the changes: the method's config again
+      runs.set_field(c, field, _value(configs[method], field))
+    assert c.to_dict() == base, scene.name
 
 
 @pytest.mark.slow

@@ -56,6 +56,19 @@ def test_tables_and_readme_block(tmp_path):
   assert text.startswith("top\n") and text.endswith("bottom\n")
 
 
+def test_summary_table_names_scene_changes(tmp_path):
+  root = str(tmp_path / "results")
+  rec = _record(12.0, [[1, 10.0]])
+  rec["scene_overrides"] = [["hi.density_noise", 1.0]]
+  _write(root, "nerf_paper", 0, rec, scene="v+noise")
+  _write(root, "nerf_paper", 0, _record(10.0, [[1, 9.0]]), scene="v")
+  _write(root, "nerf_paper", 1, _record(11.0, [[1, 9.0]]), scene="v")
+  table = report.summary_table(report.load(root)[("cpu", "time")])
+  std = np.std([10.0, 11.0], ddof=1)
+  assert f"| v | none | 10.50 ± {std:.2f} |" in table
+  assert "| v+noise | `hi.density_noise=1.0` | 12.00 |" in table
+
+
 def test_frequency_calibration_report_from_result_files(tmp_path):
   from experiments import calibrate_frequency  # pylint: disable=g-import-not-at-top
   results, docs = tmp_path / "frequency", str(tmp_path / "docs")
