@@ -69,6 +69,27 @@ def test_summary_table_names_scene_changes(tmp_path):
   assert "| v+noise | `hi.density_noise=1.0` | 12.00 |" in table
 
 
+def test_goals_checked_per_scene_kind_with_the_failure_bar(tmp_path):
+  root = str(tmp_path / "results")
+  failing = _record(20.0, [[1, 18.0], [2, 21.0], [3, 20.0]])  # ends 1 dB below its peak
+  failing["config"] = "configs/dnerf.py:a_cpu"
+  halo_dyn = _record(20.5, [[1, 19.0]])
+  halo_dyn["config"] = failing["config"]
+  _write(root, "nerf_tuned", 0, failing, scene="a")
+  _write(root, "halo", 0, halo_dyn, scene="a")
+  _write(root, "nerf_tuned", 0, _record(20.0, [[1, 18.0], [2, 20.0]]), scene="b")
+  _write(root, "halo", 0, _record(21.0, [[1, 19.0]]), scene="b")
+  _write(root, "freenerf", 0, _record(22.0, [[1, 19.0]]), scene="b")
+  scenes = report.load(root)[("cpu", "time")]
+  assert report.curve_drop(scenes["a"]["nerf_tuned"]) == 1.0
+  by_kind, per_scene = report.claims(scenes)
+  # dnerf: +0.5 dB, under the 1 dB bar the failing baseline sets; x (configs/x.py): +1 over 0
+  assert "| dnerf | a | nerf_tuned | +0.50 | a | 1 | **no** |" in by_kind
+  assert "| x | b | nerf_tuned | +1.00 | none | 0 | yes |" in by_kind
+  assert "| b | freenerf | -1.00 | 1 / 1 | **halo trails freenerf** |" in per_scene
+  assert "| b | nerf_tuned | +1.00 | 1 / 1 | halo ahead |" in per_scene
+
+
 def test_frequency_calibration_report_from_result_files(tmp_path):
   from experiments import calibrate_frequency  # pylint: disable=g-import-not-at-top
   results, docs = tmp_path / "frequency", str(tmp_path / "docs")
