@@ -13,7 +13,6 @@ Finished runs are added to results/ablations/dnerf_hi_init_val.json
 (committed; runs there are skipped, a killed one resumes from --scratch); the
 report writes docs/results/dnerf_hi_init.md.
 """
-import json
 import os
 import sys
 import time
@@ -24,6 +23,7 @@ REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 if __package__ in (None, ""):
   sys.path.insert(0, REPO)
 from halo_jax import methods, runs  # pylint: disable=g-import-not-at-top
+from experiments import run_file  # pylint: disable=g-import-not-at-top
 
 FLAGS = flags.FLAGS
 SCHEMES = {
@@ -54,15 +54,8 @@ def config_for(scene: str, scheme: str, budget_s: float):
   return c
 
 
-def read(path):
-  if not os.path.exists(path):
-    return {"runs": []}
-  with open(path) as f:
-    return json.load(f)
-
-
 def run_all(path):
-  data = read(path)
+  data = run_file.read(path)
   done = {(r["scene"], r["scheme"]) for r in data["runs"]}
   for scene in FLAGS.scenes:
     for scheme in SCHEMES:
@@ -76,11 +69,7 @@ def run_all(path):
       rec.pop("per_view", None)
       rec.update(scene=scene, scheme=scheme, split="val", budget_s=FLAGS.budget_s,
                  run_seconds=round(time.time() - start, 1))
-      data["runs"].append(rec)
-      os.makedirs(os.path.dirname(path), exist_ok=True)
-      with open(path + ".tmp", "w") as f:
-        json.dump(data, f, indent=1)
-      os.replace(path + ".tmp", path)
+      run_file.append(path, data, rec)
       print(f"ran   {scene} {scheme}: Lo {rec['stages']['lo'].get('psnr', float('nan')):.2f}"
             f"  Hi {rec['psnr']:.2f}", flush=True)
   return data
@@ -129,7 +118,7 @@ def report(data, path):
 def main(argv):
   del argv
   logging.set_verbosity(logging.WARNING)
-  data = read(FLAGS.results) if FLAGS.report_only else run_all(FLAGS.results)
+  data = run_file.read(FLAGS.results) if FLAGS.report_only else run_all(FLAGS.results)
   print(report(data, FLAGS.results))
 
 

@@ -75,12 +75,11 @@ SMOKE = Suite(
 
 # The frequency rule's choice against the hand-set CPU config: halo_auto here,
 # halo from the CPU suite (the same budget, cores and overrides).
-AUTO = Suite(
+AUTO = dataclasses.replace(
+    CPU,
     description=(
         "HALO with Lo-NeRF's frequency chosen by the frequency rule (halo_auto), on the CPU "
         "suite's terms; compared with the CPU suite's hand-set halo runs."),
-    cores=CPU.cores, budget_s=CPU.budget_s, steps=CPU.steps, curve_points=CPU.curve_points,
-    overrides=CPU.overrides,
     scenes=(Scene("lego_8view", "configs/blender.py:lego_8view_cpu", 2, "nerf_synthetic/lego",
                   ("halo_auto",)),))
 
@@ -105,12 +104,11 @@ INGREDIENT_VARIANTS = (
     ("nerf_tuned+relu", "nerf_tuned",
      (("hi.model.density_activation", "relu"), ("hi.model.density_bias", 0.0))),
 )
-INGREDIENTS = Suite(
+INGREDIENTS = dataclasses.replace(
+    CPU,
     description=(
         "nerf_paper on lego 8 views with one of nerf_tuned's ingredients at a time, and "
         "nerf_tuned with ReLU density; CPU suite terms, run with --mode=steps."),
-    cores=CPU.cores, budget_s=CPU.budget_s, steps=CPU.steps, curve_points=CPU.curve_points,
-    overrides=CPU.overrides,
     scenes=tuple(Scene(name, _LEGO, 1, "nerf_synthetic/lego", (method,), changes)
                  for name, method, changes in INGREDIENT_VARIANTS))
 

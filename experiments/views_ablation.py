@@ -10,7 +10,6 @@ runs already there are skipped, a killed run resumes from --scratch), and
 the report writes docs/results/views_ablation.md and views_ablation.png.
 Run it pinned to one core (taskset -c 1 ...) to compare with the CPU suite.
 """
-import json
 import os
 import sys
 import time
@@ -21,6 +20,7 @@ REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 if __package__ in (None, ""):
   sys.path.insert(0, REPO)
 from halo_jax import methods, runs  # pylint: disable=g-import-not-at-top
+from experiments import run_file  # pylint: disable=g-import-not-at-top
 
 FLAGS = flags.FLAGS
 
@@ -42,15 +42,8 @@ def result_path(config_spec):
   return os.path.join(FLAGS.results, f"views_{scene}.json")
 
 
-def read(path):
-  if not os.path.exists(path):
-    return {"runs": []}
-  with open(path) as f:
-    return json.load(f)
-
-
 def run_all(path):
-  data = read(path)
+  data = run_file.read(path)
   done = {(r["method"], r["k"]) for r in data["runs"]}
   base = runs.load_config(FLAGS.config)
   views = base.data.train_views.split(",")
@@ -68,11 +61,7 @@ def run_all(path):
       rec.update(method=method, k=k, train_views=views[:k], config=FLAGS.config,
                  budget_s=FLAGS.budget_s, run_seconds=round(time.time() - start, 1))
       rec.pop("per_view", None)
-      data["runs"].append(rec)
-      os.makedirs(os.path.dirname(path), exist_ok=True)
-      with open(path + ".tmp", "w") as f:
-        json.dump(data, f, indent=1)
-      os.replace(path + ".tmp", path)
+      run_file.append(path, data, rec)
       print(f"ran   {method} k={k}: PSNR {rec['psnr']:.2f} SSIM {rec['ssim']:.3f} "
             f"LPIPS {rec['lpips']:.3f}", flush=True)
   return data
@@ -121,7 +110,7 @@ def main(argv):
   del argv
   logging.set_verbosity(logging.WARNING)
   path = result_path(FLAGS.config)
-  data = read(path) if FLAGS.report_only else run_all(path)
+  data = run_file.read(path) if FLAGS.report_only else run_all(path)
   print(report(data, path))
 
 

@@ -1,0 +1,20 @@
+"""A small committed result file of finished runs ({'runs': [record, ...]}),
+added to one run at a time so that a killed experiment resumes."""
+import json
+import os
+
+
+def read(path: str) -> dict:
+  if not os.path.exists(path):
+    return {"runs": []}
+  with open(path) as f:
+    return json.load(f)
+
+
+def append(path: str, data: dict, record: dict) -> None:
+  """Adds `record` to `data` and writes it atomically (a killed write leaves no half file)."""
+  data["runs"].append(record)
+  os.makedirs(os.path.dirname(path), exist_ok=True)
+  with open(path + ".tmp", "w") as f:
+    json.dump(data, f, indent=1)
+  os.replace(path + ".tmp", path)
