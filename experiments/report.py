@@ -255,8 +255,11 @@ def provenance_lines(scenes):
   peaks = [p.get("matmul_peak_gflops") for p in prov if p.get("matmul_peak_gflops")]
   versions = sorted({f"jax {p.get('versions', {}).get('jax')}, flax "
                      f"{p.get('versions', {}).get('flax')}" for p in prov})
-  budgets = sorted({r.get("budget_s") for r in recs})
-  return [f"- runs: {len(recs)}; training budget per run: {budgets} s",
+  if all(r.get("mode") == "steps" for r in recs):
+    budget = f"{sorted({r.get('target_steps') for r in recs})} steps"
+  else:
+    budget = f"{sorted({r.get('budget_s') for r in recs})} s"
+  return [f"- runs: {len(recs)}; training budget per run: {budget}",
           f"- machines: {'; '.join(devices)}",
           f"- measured matmul peak: {min(peaks):.0f}-{max(peaks):.0f} GFLOP/s" if peaks else "",
           f"- software: {'; '.join(versions)}",
