@@ -15,7 +15,6 @@ resumes from its checkpoints in --scratch on the same machine. Runs go seed
 by seed (every scene and method at seed 0 first), so a partial suite covers
 every scene. experiments/report.py turns the files into docs/results/.
 """
-import json
 import os
 import re
 import sys
@@ -27,7 +26,7 @@ from absl import app, flags, logging
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 if __package__ in (None, ""):  # run as a script: the repository root holds `experiments`
   sys.path.insert(0, REPO)
-from experiments import suites  # pylint: disable=g-import-not-at-top
+from experiments import run_file, suites  # pylint: disable=g-import-not-at-top
 from halo_jax import defaults, runs  # pylint: disable=g-import-not-at-top
 
 FLAGS = flags.FLAGS
@@ -101,10 +100,7 @@ def run_one(suite_name, suite, scene, method, seed, mode, results, scratch) -> d
                 target_steps=suite.steps if mode == "steps" else None,
                 run_seconds=round(time.time() - start, 1))
   path = result_path(results, suite_name, mode, scene, method, seed)
-  os.makedirs(os.path.dirname(path), exist_ok=True)
-  with open(path + ".tmp", "w") as f:
-    json.dump(record, f, indent=1)
-  os.replace(path + ".tmp", path)  # a killed write leaves no half file
+  run_file.write_json(path, record)
   return record
 
 

@@ -26,7 +26,7 @@ from absl import app, flags, logging
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 if __package__ in (None, ""):
   sys.path.insert(0, REPO)
-from experiments import suites  # pylint: disable=g-import-not-at-top
+from experiments import run_file, suites  # pylint: disable=g-import-not-at-top
 from halo_jax import calibration, defaults, methods, provenance, runs  # pylint: disable=g-import-not-at-top
 
 FLAGS = flags.FLAGS
@@ -80,10 +80,7 @@ def run_scene(scene, lo_steps, scratch, results):
       "run_seconds": round(time.time() - start, 1),
       "provenance": provenance.collect()}
   path = os.path.join(results, f"{scene.name}.json")
-  os.makedirs(results, exist_ok=True)
-  with open(path + ".tmp", "w") as f:
-    json.dump(record, f, indent=1)
-  os.replace(path + ".tmp", path)
+  run_file.write_json(path, record)
   return record
 
 

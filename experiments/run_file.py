@@ -11,10 +11,15 @@ def read(path: str) -> dict:
     return json.load(f)
 
 
-def append(path: str, data: dict, record: dict) -> None:
-  """Adds `record` to `data` and writes it atomically (a killed write leaves no half file)."""
-  data["runs"].append(record)
-  os.makedirs(os.path.dirname(path), exist_ok=True)
+def write_json(path: str, obj) -> None:
+  """Writes `obj` to `path` atomically: a killed write leaves no half file."""
+  os.makedirs(os.path.dirname(path) or ".", exist_ok=True)
   with open(path + ".tmp", "w") as f:
-    json.dump(data, f, indent=1)
+    json.dump(obj, f, indent=1)
   os.replace(path + ".tmp", path)
+
+
+def append(path: str, data: dict, record: dict) -> None:
+  """Adds `record` to `data` and writes the file atomically."""
+  data["runs"].append(record)
+  write_json(path, data)
