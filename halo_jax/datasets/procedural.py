@@ -14,6 +14,10 @@ of radius 4.03 as in the Blender scenes. SCENES:
             frame's width); training cameras only on one half of the
             azimuths (x > 0), test cameras on the full orbit, so half of
             every test orbit looks at sides no training view saw.
+
+Every scene also has a `val` split: cameras at random azimuths (all round,
+whatever the training side) and elevations, none on the test orbit, for
+choosing settings without the test views (data.test_split='val').
 """
 import dataclasses
 import json
@@ -176,29 +180,37 @@ def render_rays(o, d, scene: str = "spheres"):
   return rgba, np.where(hit, t_hit, 0.0)
 
 
-def _poses(spec: Scene, rng, num_train, num_test):
-  lo, hi = spec.train_azimuth
-  s_lo, s_hi = spec.train_sin_elevation
-  train = [camera.spherical_camera(RADIUS, rng.uniform(lo, hi),
-                                   np.rad2deg(np.arcsin(rng.uniform(s_lo, s_hi))))
-           for _ in range(num_train)]
+def _random_cameras(rng, n, azimuth, sin_elevation):
+  return [camera.spherical_camera(RADIUS, rng.uniform(*azimuth),
+                                  np.rad2deg(np.arcsin(rng.uniform(*sin_elevation))))
+          for _ in range(n)]
+
+
+def _poses(spec: Scene, rng, num_train, num_test, num_val):
+  """{split: [c2w]}. Val is drawn after train from the same generator, so
+  adding it left the train and test poses as they were."""
+  train = _random_cameras(rng, num_train, spec.train_azimuth, spec.train_sin_elevation)
   test = [camera.spherical_camera(RADIUS, az, 30.0)
           for az in np.linspace(-180, 180, num_test, endpoint=False)]
-  return train, test
+  # Elevations off the test orbit's 30 degrees (sin 0.5): below or above it.
+  val = [camera.spherical_camera(
+      RADIUS, rng.uniform(-180.0, 180.0),
+      np.rad2deg(np.arcsin(rng.choice([rng.uniform(0.15, 0.4), rng.uniform(0.6, 0.9)]))))
+         for _ in range(num_val)]
+  return {"train": train, "test": test, "val": val}
 
 
 def generate(root: str, size: int = 100, num_train: int = 100, num_test: int = 200,
-             seed: int = 0, scene: str = "spheres") -> str:
+             seed: int = 0, scene: str = "spheres", num_val: int = 24) -> str:
   """Writes SCENES[scene] to `root` (skipped if already complete); returns root."""
   if scene not in SCENES:
     raise ValueError(f"data.procedural_scene={scene!r}: not one of {sorted(SCENES)}")
-  done = os.path.join(root, ".complete")
+  done = os.path.join(root, ".complete_with_val")
   if os.path.exists(done):
     return root
   focal = 0.5 * size / np.tan(0.5 * CAMERA_ANGLE_X)
-  train_poses, test_poses = _poses(SCENES[scene], np.random.default_rng(seed), num_train,
-                                   num_test)
-  for split, poses in (("train", train_poses), ("test", test_poses)):
+  poses_of = _poses(SCENES[scene], np.random.default_rng(seed), num_train, num_test, num_val)
+  for split, poses in poses_of.items():
     os.makedirs(os.path.join(root, split), exist_ok=True)
     frames = []
     for i, c2w in enumerate(poses):

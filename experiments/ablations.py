@@ -1,0 +1,270 @@
+"""Ablation studies scored on validation views: which setting HALO should use.
+
+A study is a set of scenes, variants (a method plus config overrides) and
+seeds, run on the CPU suite's terms (240 s of training on one core) but
+scored on views the suite never scores: D-NeRF's `val` frames, the built-in
+scenes' `val` cameras (datasets/procedural.py). Nothing here reads a test view.
+
+  python experiments/ablations.py --study=dnerf_hi [--only=REGEX] [--core=0|1]
+  python experiments/ablations.py --study=fog --dry_run
+  python experiments/ablations.py --study=fog --report_only
+
+Each finished run writes results/ablations/<study>/<scene>/<variant>/seed<k>.json
+(committed; a run whose file exists is skipped, a killed one resumes from
+--scratch), and the report docs/results/ablation_<study>.md: per scene and
+variant, the final stage's val PSNR (mean +- std over seeds), Lo-NeRF's val
+PSNR at the end of its stage, the steps each stage trained, and the
+difference from the study's reference variant.
+"""
+import dataclasses
+import os
+import re
+import statistics
+import sys
+import time
+import traceback
+from typing import Tuple
+
+from absl import app, flags, logging
+
+REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+if __package__ in (None, ""):
+  sys.path.insert(0, REPO)
+from experiments import benchmark, run_file, suites  # pylint: disable=g-import-not-at-top
+from halo_jax import runs  # pylint: disable=g-import-not-at-top
+
+FLAGS = flags.FLAGS
+
+
+@dataclasses.dataclass(frozen=True)
+class Variant:
+  name: str
+  method: str
+  overrides: Tuple[Tuple[str, object], ...] = ()
+  note: str = ""
+
+
+@dataclasses.dataclass(frozen=True)
+class Study:
+  title: str
+  question: str
+  scenes: Tuple[suites.Scene, ...]
+  variants: Tuple[Variant, ...]
+  reference: str            # the variant that is the current default
+  seeds: int
+
+
+# Validation views instead of the suite's test views; the CPU suite's budget,
+# core count and curve settings otherwise.
+VALIDATION = (("data.test_split", "val"), ("data.test_views", "all"))
+
+
+def _terms(study: Study) -> suites.Suite:
+  return dataclasses.replace(suites.CPU, scenes=study.scenes,
+                             overrides=suites.CPU.overrides + VALIDATION)
+
+
+def _both(field, value):
+  """The same override on Lo and Hi (Hi starts as Lo's exact copy, so model
+  fields must agree)."""
+  return ((f"lo.{field}", value), (f"hi.{field}", value))
+
+
+_DNERF = tuple(s for s in suites.CPU.scenes if s.name.startswith("dnerf_"))
+_PROCEDURAL = tuple(s for s in suites.CPU.scenes if s.name in ("spheres", "lattice"))
+
+STUDIES = {
+    "dnerf_hi": Study(
+        title="D-NeRF: Hi-NeRF after a copy of Lo-NeRF",
+        question=("Why HALO's Hi stage ends below its own Lo stage on dynamic scenes, and "
+                  "which setting of Hi keeps Lo's gain."),
+        scenes=_DNERF,
+        variants=(
+            Variant("halo", "halo", note="Hi at 2e-3 -> 2e-4 (the CPU rate)"),
+            Variant("hi_lr_5e-4", "halo", (("hi.lr_init", 5e-4), ("hi.lr_final", 5e-5)),
+                    "Hi at a quarter of the CPU rate"),
+            Variant("hi_lr_1e-3", "halo", (("hi.lr_init", 1e-3), ("hi.lr_final", 1e-4)),
+                    "Hi at half the CPU rate"),
+            Variant("halo+freenerf", "halo+freenerf",
+                    note="Hi's own P.E. bands open over 90% of Hi's steps"),
+        ),
+        reference="halo", seeds=2),
+    "fog": Study(
+        title="Built-in scenes: Lo-NeRF's fog where no training ray passes",
+        question=("What removes the density Lo-NeRF leaves where no training ray passes "
+                  "(spheres at seed 1), and narrows lattice's spread over seeds."),
+        scenes=_PROCEDURAL,
+        variants=(
+            Variant("halo", "halo", note="softplus(raw - 1): ~0.31 per unit at the start"),
+            Variant("density_bias_-4", "halo", _both("model.density_bias", -4.0),
+                    "softplus(raw - 4): ~0.018 per unit at the start"),
+            Variant("relu", "halo", _both("model.density_activation", "relu")
+                    + _both("model.density_bias", 0.0), "ReLU density (the authors')"),
+        ),
+        reference="halo", seeds=3),
+}
+
+
+def _plan(study: Study, only: str):
+  out = []
+  for seed in range(study.seeds):
+    for scene in study.scenes:
+      for v in study.variants:
+        if re.search(only, f"{scene.name}/{v.name}/seed{seed}"):
+          out.append((scene, v, seed))
+  return out
+
+
+def result_path(results, study_name, scene, variant, seed):
+  return os.path.join(results, "ablations", study_name, scene.name, variant.name,
+                      f"seed{seed}.json")
+
+
+def configure(study: Study, scene: suites.Scene, variant: Variant, seed: int, scratch: str):
+  c = benchmark.configure(_terms(study), scene, variant.method, seed, "time", scratch)
+  for field, value in variant.overrides:
+    runs.set_field(c, field, value)
+  return c
+
+
+def run_one(study_name, study, scene, variant, seed, results, scratch) -> dict:
+  c = configure(study, scene, variant, seed, scratch)
+  workdir = os.path.join(scratch, "ablations", study_name, scene.name, variant.name,
+                         f"seed{seed}")
+  start = time.time()
+  record = runs.run_method(c, workdir)
+  record.pop("per_view", None)
+  record.update(study=study_name, scene=scene.name, config=scene.config, variant=variant.name,
+                method=variant.method, overrides=[list(o) for o in variant.overrides],
+                split=c.data.test_split, seed=seed, budget_s=c.budget_s,
+                run_seconds=round(time.time() - start, 1))
+  run_file.write_json(result_path(results, study_name, scene, variant, seed), record)
+  return record
+
+
+def read_records(results, study_name):
+  """{(scene, variant): [record, ...]} of a study's finished runs."""
+  import json  # pylint: disable=g-import-not-at-top
+  root = os.path.join(results, "ablations", study_name)
+  out = {}
+  if not os.path.isdir(root):
+    return out
+  for dirpath, _, files in os.walk(root):
+    for f in sorted(files):
+      if f.endswith(".json"):
+        with open(os.path.join(dirpath, f)) as fh:
+          r = json.load(fh)
+        out.setdefault((r["scene"], r["variant"]), []).append(r)
+  return out
+
+
+def _mean_std(xs):
+  if not xs:
+    return ""
+  if len(xs) == 1:
+    return f"{xs[0]:.2f}"
+  return f"{statistics.mean(xs):.2f} ± {statistics.stdev(xs):.2f}"
+
+
+def report(study_name: str, study: Study, results: str) -> str:
+  """The study's page (markdown), from its result files."""
+  recs = read_records(results, study_name)
+  lines = [f"# Ablation: {study.title}", "",
+           f"Generated by `experiments/ablations.py --study={study_name} --report_only` from "
+           f"`results/ablations/{study_name}/`; do not edit.", "",
+           study.question, "",
+           f"CPU suite terms ({suites.CPU.budget_s:g} s of training on one core), scored on "
+           "validation views, never on the test views the suite reports: "
+           "D-NeRF's `val` frames, the built-in scenes' `val` cameras. PSNR of the method's "
+           "output, mean ± std over seeds; `Lo` is Lo-NeRF's PSNR at the end of its stage on "
+           "the same views; `steps` the steps each stage trained (mean); `Δ` the difference "
+           f"from `{study.reference}` over the seeds both have.", "",
+           "| variant | what it changes |", "|---|---|"]
+  for v in study.variants:
+    lines.append(f"| `{v.name}` | {v.note or ', '.join(f'{k}={x}' for k, x in v.overrides)} |")
+  for scene in study.scenes:
+    rows = [(v, recs.get((scene.name, v.name), [])) for v in study.variants]
+    if not any(r for _, r in rows):
+      continue
+    ref = {r["seed"]: r for r in recs.get((scene.name, study.reference), [])}
+    lines += ["", f"## {scene.name}", "",
+              "| variant | seeds | PSNR | Lo PSNR | final - Lo | Δ | steps |",
+              "|---|---|---|---|---|---|---|"]
+    for v, rs in rows:
+      if not rs:
+        lines.append(f"| `{v.name}` | 0 | | | | | |")
+        continue
+      final = [r["psnr"] for r in rs]
+      lo = [r["stages"]["lo"]["psnr"] for r in rs if "psnr" in r["stages"].get("lo", {})]
+      drop = [r["psnr"] - r["stages"]["lo"]["psnr"] for r in rs
+              if "psnr" in r["stages"].get("lo", {})]
+      delta = [r["psnr"] - ref[r["seed"]]["psnr"] for r in rs if r["seed"] in ref]
+      steps = ", ".join(
+          f"{n} {statistics.mean(r['stages'][n]['step'] for r in rs):.0f}"
+          for n in rs[0]["stages"])
+      lines.append(f"| `{v.name}` | {len(rs)} | {_mean_std(final)} | {_mean_std(lo)} | "
+                   f"{f'{statistics.mean(drop):+.2f}' if drop else ''} | "
+                   f"{f'{statistics.mean(delta):+.2f}' if delta and v.name != study.reference else ''}"
+                   f" | {steps} |")
+    per_seed = sorted({r["seed"] for _, rs in rows for r in rs})
+    if len(per_seed) > 1:
+      lines += ["", "Per seed: " + "; ".join(
+          f"`{v.name}` " + ", ".join(f"{r['psnr']:.2f}" for r in sorted(rs, key=lambda r: r["seed"]))
+          for v, rs in rows if rs) + "."]
+  commits = sorted({(r["provenance"].get("git") or {}).get("commit", "?")[:7]
+                    for rs in recs.values() for r in rs})
+  if commits:
+    lines += ["", f"Commits: {', '.join(commits)}."]
+  return "\n".join(lines) + "\n"
+
+
+def define_flags():
+  """This script's own flags; --only, --results, --scratch and --dry_run are
+  experiments/benchmark.py's (imported above), with the same meaning."""
+  flags.DEFINE_enum("study", "fog", sorted(STUDIES), "Study to run.")
+  flags.DEFINE_string("docs", os.path.join(REPO, "docs", "results"), "Report folder.")
+  flags.DEFINE_integer("core", -1, "Pin to this one core (-1: the machine's last).")
+  flags.DEFINE_bool("report_only", False, "Write the report from the result files only.")
+
+
+def main(argv):
+  del argv
+  logging.set_verbosity(logging.WARNING)
+  study = STUDIES[FLAGS.study]
+  if not FLAGS.report_only:
+    if hasattr(os, "sched_setaffinity"):
+      allowed = sorted(os.sched_getaffinity(0))
+      os.sched_setaffinity(0, [allowed[FLAGS.core]])
+    failed = []
+    for scene, variant, seed in _plan(study, FLAGS.only):
+      path = result_path(FLAGS.results, FLAGS.study, scene, variant, seed)
+      tag = f"{scene.name}/{variant.name}/seed{seed}"
+      state = benchmark._state(path, scene)  # pylint: disable=protected-access
+      if FLAGS.dry_run or state != "to run":
+        print(f"{state:8} {tag}", flush=True)
+        continue
+      try:
+        r = run_one(FLAGS.study, study, scene, variant, seed, FLAGS.results, FLAGS.scratch)
+      except Exception:  # pylint: disable=broad-except
+        traceback.print_exc()
+        print(f"FAILED   {tag}", flush=True)
+        failed.append(tag)
+        continue
+      lo = r["stages"].get("lo", {}).get("psnr")
+      print(f"ran      {tag}: {r['psnr']:.2f}" + (f" (Lo {lo:.2f})" if lo else "") +
+            "  steps " + ", ".join(f"{n} {s['step']}" for n, s in r["stages"].items()),
+            flush=True)
+    if failed:
+      sys.exit(f"{len(failed)} run(s) failed: {', '.join(failed)}")
+  if FLAGS.dry_run:
+    return
+  text = report(FLAGS.study, study, FLAGS.results)
+  os.makedirs(FLAGS.docs, exist_ok=True)
+  with open(os.path.join(FLAGS.docs, f"ablation_{FLAGS.study}.md"), "w") as f:
+    f.write(text)
+  print(text)
+
+
+if __name__ == "__main__":
+  define_flags()
+  app.run(main)
