@@ -40,6 +40,13 @@ def _train(steps, batch_rays, lr_init, lr_final):
       # schedule that does not depend on the step cap (the original NeRF's)
       lr_decay_steps=0,
       max_seconds=0.0,        # stop a stage after this much training time (0: no cap)
+      # ... but not before this many steps: a stage whose time share a slow
+      # machine spends elsewhere (e.g. rendering targets) still trains. The
+      # pipeline takes the overrun from the later stages' shares.
+      min_steps=0,
+      # stop after this step, as a time cap would, with every schedule (the
+      # learning rate's, FreeNeRF's mask) still spanning `steps` (0: at `steps`)
+      stop_at_step=0,
       # stop with an error after this many non-finite steps in a row (each is
       # skipped, leaving the parameters as they were; 0: never stop)
       max_nonfinite=20,
@@ -224,6 +231,10 @@ def _ray_stage():
   r.random_fraction = 0.5     # share of each batch drawn from random hemisphere rays
   r.bank_rays = 262144        # random rays rendered once by the frozen Lo-NeRF
   r.lo_samples = 0            # samples for the Lo-NeRF targets (0: Lo's own count)
+  # Training rays whose Lo-NeRF targets are rendered, drawn once at random
+  # (0: every training pixel). Rendering 4 LLFF views at 504x378 with Lo
+  # takes longer than a CPU budget gives the whole stage.
+  r.target_rays = 0
   return r
 
 
@@ -308,8 +319,12 @@ def cpu_sized(c: ml_collections.ConfigDict, budget_s: float) -> ml_collections.C
   c.lo.update(batch_rays=1024, steps=1500, lr_init=2e-3, lr_final=2e-4, precrop_steps=200,
               checkpoint_every=500, log_every=50)
   c.ray.model.update(width=128, depth=4, skips=())
-  c.ray.update(batch_rays=2048, steps=3000, bank_rays=32768, checkpoint_every=1000,
-               log_every=100)
+  c.ray.update(batch_rays=2048, steps=3000, bank_rays=32768, target_rays=131072,
+               checkpoint_every=1000, log_every=100)
+  # Floors under the time shares: every stage of HALO trains on any machine.
+  c.lo.min_steps = 100
+  c.ray.min_steps = 200
+  c.hi.min_steps = 100
   c.hi.encoding.with_lo = True
   # The frequency search's short Lo-NeRFs: the length its threshold was
   # calibrated at (experiments/calibrate_frequency.py).

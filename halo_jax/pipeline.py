@@ -92,8 +92,10 @@ def _run(config, workdir, dataset):
       continue
     if config.budget_s > 0:
       # A stage that reached its step cap before its share of the budget
-      # leaves the rest to the next, so the method trains for budget_s.
-      config[name].max_seconds = max(config[name].max_seconds, until[name] - wall)
+      # leaves the rest to the next, and one that ran past its share (its
+      # min_steps floor) takes the excess from the next, so the method trains
+      # for budget_s; the last stage's floor is the only way past it.
+      config[name].max_seconds = max(until[name] - wall, 1e-3)
     ctx = base.StageContext(config, name, dataset, workdir, dict(states), log, wall, mesh)
     state, info = base.trainer_of(config, name).train(ctx)
     wall += info["wall_s"]

@@ -62,6 +62,8 @@ def run_method(config, workdir, dataset=None) -> dict:
           "wall_s": sum(i["wall_s"] for i in infos.values()),
           "stages": {n: {"wall_s": i["wall_s"], "step": i["step"],
                          "skipped": i.get("skipped", 0),
+                         **{k: i[k] for k in ("past_time_cap", "target_s", "target_rays")
+                            if k in i},
                          **({"psnr": i["eval"]["psnr"]} if "eval" in i else {})}
                      for n, i in infos.items()},
           "curve": read_curve(workdir),

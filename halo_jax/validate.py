@@ -37,6 +37,10 @@ def _check_training(cfg, name):
   check(isinstance(cfg.get("max_nonfinite", 0), int) and cfg.get("max_nonfinite", 0) >= 0,
         f"{name}.max_nonfinite={cfg.get('max_nonfinite')!r}: must be an integer >= 0")
   check(cfg.max_seconds >= 0, f"{name}.max_seconds={cfg.max_seconds!r}: must be >= 0")
+  for field in ("min_steps", "target_rays", "stop_at_step"):
+    if field in cfg:
+      check(isinstance(cfg[field], int) and cfg[field] >= 0,
+            f"{name}.{field}={cfg[field]!r}: must be an integer >= 0")
 
 
 def _check_sampler(cfg, name):

@@ -9,7 +9,7 @@ import imageio.v3 as iio
 import numpy as np
 import pytest
 
-from halo_jax import models, pipeline, stages
+from halo_jax import models, pipeline, registry, stages, validate
 from halo_jax.stages import transfer
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -105,6 +105,35 @@ def test_stages_that_stop_early_leave_their_time_to_the_next(config, scene_root,
   # Hi trains until the budget is spent: its own share plus what they left.
   assert infos["hi"]["wall_s"] > share["hi"] + 0.8 * (share["lo"] + share["ray"] - used)
   assert budget - 0.5 < infos["hi"]["cumulative_wall_s"] < budget + 1.0
+
+
+@pytest.mark.slow
+def test_a_stage_out_of_time_still_trains_its_floor_and_the_next_pays_for_it(
+    config, scene_root, tmp_path):
+  # The ray field's share is far too small for any step, as on a slow machine
+  # where rendering its targets eats the share; min_steps still trains it, the
+  # record says it ran past its cap, and Hi's time shrinks so that the method
+  # keeps to its budget.
+  config.data.root = scene_root
+  config.eval.lpips = False
+  budget = 24.0
+  config.budget_s = budget
+  config.budget_shares.update(lo=0.45, ray=0.0001, hi=0.55)
+  config.ray.update(min_steps=5, target_rays=200)
+  for name in ("lo", "ray", "hi"):
+    config[name].update(steps=10 ** 6, checkpoint_every=10 ** 6, log_every=10 ** 6,
+                        eval_every=0)
+  infos = pipeline.run(config, str(tmp_path / "run"))
+  assert infos["ray"]["step"] == 5 and infos["ray"]["past_time_cap"]
+  assert infos["ray"]["target_rays"] == 200
+  assert not infos["hi"]["past_time_cap"]
+  assert budget - 0.5 < infos["hi"]["cumulative_wall_s"] < budget + 1.0
+
+
+def test_min_steps_and_target_rays_are_validated(config):
+  config.ray.min_steps = -1
+  with pytest.raises(registry.ConfigError, match="ray.min_steps=-1"):
+    validate.validate(config)
 
 
 def test_transfer_from_lo_with_lo_encoding_starts_as_lo():

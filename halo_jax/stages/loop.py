@@ -297,7 +297,8 @@ class _Run:
 def train(name: str, cfg, workdir: str, params, loss_fn: Callable, data, seed: int,
           eval_fn: Optional[Callable] = None, log: Optional[MetricsLog] = None,
           wall_offset: float = 0.0, mesh=None):
-  """Trains `params` on `loss_fn` for cfg.steps (or cfg.max_seconds) and returns them.
+  """Trains `params` on `loss_fn` for cfg.steps (or cfg.max_seconds, but never
+  fewer than cfg.min_steps) and returns them.
 
   Args:
     name: stage name, used for the checkpoint folder and log records.
@@ -342,16 +343,22 @@ def train(name: str, cfg, workdir: str, params, loss_fn: Callable, data, seed: i
     bar.close()  # before any error line, so it starts a line of its own
     if board is not None:
       board.close()
-  return parallel.to_local(run.state["params"]), step, {"wall_s": run.wall_s,
-                                                        "skipped": int(run.state["skipped"]),
-                                                        "compile_s": compile_s}
+  info = {"wall_s": run.wall_s, "skipped": int(run.state["skipped"]), "compile_s": compile_s,
+          # the time cap was reached before the floor of steps: trained past it
+          "past_time_cap": bool(cfg.max_seconds and run.wall_s > cfg.max_seconds
+                                and start < step <= cfg.get("min_steps", 0))}
+  return parallel.to_local(run.state["params"]), step, info
 
 
 def _loop(run, step_fn, data, base_key, bar, start, cfg):
   """Steps until cfg.steps or cfg.max_seconds; returns the last step taken."""
   step, in_flight = start, None  # in_flight: the loss of the step before the current one
-  for step in range(start + 1, cfg.steps + 1):
-    if cfg.max_seconds and run.wall_s >= cfg.max_seconds:
+  # The time cap stops a stage only after its floor of steps (min_steps), so
+  # that no stage of a method is left untrained on a slow machine.
+  floor = min(cfg.get("min_steps", 0), cfg.steps)
+  last = min(cfg.steps, cfg.get("stop_at_step", 0) or cfg.steps)
+  for step in range(start + 1, last + 1):
+    if cfg.max_seconds and run.wall_s >= cfg.max_seconds and step > floor:
       step -= 1
       break
     t0 = time.perf_counter()

@@ -18,7 +18,8 @@ class ProgressBar:
                            bar_format="{l_bar}{bar}| {n:.0f}/{total:.0f} s "
                                       "[{elapsed}<{remaining}{postfix}]")
     else:
-      self.bar = tqdm.tqdm(total=cfg.steps, initial=start_step, desc=name, unit="step",
+      last = min(cfg.steps, cfg.get("stop_at_step", 0) or cfg.steps)
+      self.bar = tqdm.tqdm(total=last, initial=min(start_step, last), desc=name, unit="step",
                            dynamic_ncols=True, mininterval=1.0)
     self.shown = {}
 

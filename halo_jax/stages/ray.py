@@ -5,6 +5,7 @@ import time
 
 import jax
 import jax.numpy as jnp
+import numpy as np
 
 from halo_jax import geometry, losses, parallel, ray_fields, raycast, registry
 from halo_jax.stages import base, lo_targets, loop
@@ -53,12 +54,16 @@ def loss_fn(params, data, key, step, part=None, *, model, guide_geometry, radius
 
 
 def _targets(ctx, lo_samples, n_random, radius):
-  """Lo-NeRF's depth and opacity on the training rays and on a bank of random
-  hemisphere rays (numpy)."""
+  """Lo-NeRF's depth and opacity on the training rays (or `target_rays` of
+  them, drawn once) and on a bank of random hemisphere rays (numpy)."""
   config, cfg, ds = ctx.config, ctx.cfg, ctx.dataset
   lo = ctx.states[TEACHER]
   o, d = ds.train.rays()
   o, d = o.reshape(-1, 3), d.reshape(-1, 3)
+  if 0 < cfg.target_rays < o.shape[0]:
+    keep = np.sort(np.random.default_rng(config.seed + 3).choice(
+        o.shape[0], cfg.target_rays, replace=False))
+    o, d = o[keep], d[keep]
   common = dict(near=ds.near, far=ds.far, white_background=ds.white_background,
                 target=cfg.depth_target, chunk=config.eval.chunk,
                 block_rays=config.eval.block_rays)
@@ -99,7 +104,7 @@ def train(ctx: base.StageContext):
                                   step_loss, data, config.seed, None, ctx.log,
                                   ctx.wall_offset + target_s, ctx.mesh)
   info["wall_s"] += target_s
-  info["target_s"] = target_s
+  info.update(target_s=target_s, target_rays=int(data["train"]["depth"].shape[0]))
   return StageState(params, step, config, name), info
 
 

@@ -12,7 +12,7 @@ from halo_jax import checkpoint, parallel
 # <workdir>/tune and reused); they may change between launches in one workdir.
 # Every other field must match the config the workdir was started with.
 RELAUNCH_FIELDS = ("stages", "budget_s", "eval.*", "tune.*", "parallel.*", "*.steps",
-                   "*.max_seconds",
+                   "*.max_seconds", "*.stop_at_step",
                    "*.eval_every", "*.eval_every_s", "*.log_every", "*.checkpoint_every")
 
 
