@@ -108,6 +108,10 @@ STUDIES = {
                     "softplus(raw - 4): ~0.018 per unit at the start"),
             Variant("relu", "halo", _both("model.density_activation", "relu")
                     + _both("model.density_bias", 0.0), "ReLU density (the authors')"),
+            Variant("halo+unseen", "halo+unseen",
+                    note="L_unseen on Lo and Hi, weight 0.01 (methods/halo_unseen.py)"),
+            Variant("halo+unseen_0.1", "halo+unseen", _both("unseen.weight", 0.1),
+                    "L_unseen on Lo and Hi, weight 0.1"),
         ),
         reference="halo", seeds=3),
 }

@@ -75,6 +75,10 @@ def _radiance_stage(L, scale, use_viewdirs, steps, num_samples, sampler):
       window=0.3,           # depth_guided: r, half window as a fraction of far - near
       near_only=False,      # depth_guided: tighten only the near side (authors' code)
   ))
+  # L_unseen (stages/unseen.py): mean density at random points that fewer
+  # than min_views training cameras see (weight 0: off; methods/halo_unseen.py)
+  cfg.unseen = ml_collections.ConfigDict(dict(weight=0.0, num_points=2048,
+                                              bank_points=262144, min_views=1))
   cfg.density_noise = 1.0
   cfg.precrop_steps = 500
   cfg.precrop_frac = 0.5

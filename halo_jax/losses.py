@@ -42,3 +42,13 @@ def occlusion(sigma, num_near: int):
   prior that also masks more samples of white or black pixels is left out.
   """
   return jnp.mean(sigma[..., :num_near])
+
+
+def unseen_density(sigma, unseen):
+  """L_unseen: mean density over the points that no training camera sees.
+
+  sigma [...] >= 0, unseen [...] bool (or 0/1) -> scalar; 0 when no point is
+  unseen. Density, not opacity, so that thick fog pulls as hard as thin.
+  """
+  unseen = unseen.astype(sigma.dtype)
+  return (sigma * unseen).sum() / jnp.maximum(unseen.sum(), 1.0)

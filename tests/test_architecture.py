@@ -15,7 +15,7 @@ PACKAGE = pathlib.Path(__file__).resolve().parent.parent / "halo_jax"
 # may import modules of its own layer or below.
 LAYERS = (
     {"registry", "geometry", "encoding", "camera", "rng", "samplers", "render", "raycast",
-     "losses", "metrics", "lightfield", "frequency", "plots", "provenance",
+     "losses", "metrics", "lightfield", "frequency", "plots", "provenance", "visibility",
      "tensorboard", "video", "config_files"},
     {"models", "ray_fields", "datasets", "checkpoint", "parallel", "evaluate", "defaults",
      "camera_paths", "view_pairs",
@@ -134,9 +134,10 @@ def test_modules_and_functions_stay_small():
     (models.MODELS, {"nerf", "deform", "epi"}),
     (samplers.SAMPLERS, {"stratified", "hierarchical", "coarse_fine", "depth_guided", "joint"}),
     (terms.TERMS, {"consist", "empty", "occlusion", "lf_consist", "lf_nerf_consist", "lf_color",
-                   "lf_random"}),
+                   "lf_random", "unseen"}),
     (base.TRAINERS, {"radiance", "ray_field", "light_field"}),
-    (METHODS, {"halo", "nerf_tuned", "nerf_paper", "freenerf", "halo+freenerf", "halo_auto"}),
+    (METHODS, {"halo", "nerf_tuned", "nerf_paper", "freenerf", "halo+freenerf", "halo_auto",
+               "halo+unseen"}),
     (view_pairs.PAIR_KINDS, {"orbit", "orbit_time", "spiral", "uv"}),
 ])
 def test_registries_hold_every_entry(registry, expected):

@@ -9,7 +9,8 @@ module here plus one `register` line below, never an edit to the pipeline.
 import copy
 
 from halo_jax import registry
-from halo_jax.methods import freenerf, halo, halo_auto, halo_freenerf, nerf_paper, nerf_tuned
+from halo_jax.methods import (freenerf, halo, halo_auto, halo_freenerf, halo_unseen, nerf_paper,
+                              nerf_tuned)
 from halo_jax.methods.base import Method
 
 METHODS = registry.Registry[Method]("method")
@@ -21,6 +22,7 @@ METHODS.register("nerf_paper", nerf_paper.METHOD)
 METHODS.register("freenerf", freenerf.METHOD)
 METHODS.register("halo+freenerf", halo_freenerf.METHOD)
 METHODS.register("halo_auto", halo_auto.METHOD)
+METHODS.register("halo+unseen", halo_unseen.METHOD)
 
 
 

@@ -206,6 +206,8 @@ def train(ctx: base.StageContext):
   loop.check_parts(cfg, cfg.batch_rays, f"{name}.batch_rays", ctx.mesh)
   if any(n == "empty" for n, _ in active):
     loop.check_parts(cfg, cfg.empty.num_rays, f"{name}.empty.num_rays", ctx.mesh)
+  if any(n == "unseen" for n, _ in active):
+    loop.check_parts(cfg, cfg.unseen.num_points, f"{name}.unseen.num_points", ctx.mesh)
   model = models.nerf_from_config(config, name)
   params = _initial_params(ctx)
   t0 = time.perf_counter()

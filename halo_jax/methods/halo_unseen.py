@@ -1,0 +1,26 @@
+"""halo+unseen: HALO with L_unseen on Lo-NeRF and Hi-NeRF (stages/unseen.py).
+
+HALO's L_empty keeps Hi-NeRF empty where Lo-NeRF is empty, but nothing keeps
+Lo-NeRF empty where no training ray passes: its starting density survives
+there as fog, and Hi-NeRF, started as Lo's copy, keeps it. This method adds
+one term to both NeRF stages: the mean density at random points that no
+training camera sees. Only where held-out cameras surround the object (sphere
+rays); on forward-facing and light-field scenes every point a test view sees
+is in a training frustum, and the method is HALO unchanged.
+"""
+from halo_jax import datasets, geometry
+from halo_jax.methods import base
+
+WEIGHT = 0.01
+
+
+def apply(c):
+  if datasets.spec_of(c.data).geometry == geometry.Geometry.SPHERE:
+    for name in ("lo", "hi"):
+      if c[name].kind == "radiance":
+        c[name].unseen.weight = WEIGHT
+  return c
+
+
+METHOD = base.Method("HALO with L_unseen: Lo and Hi kept empty where no training camera looks",
+                     apply)

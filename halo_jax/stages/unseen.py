@@ -1,0 +1,66 @@
+"""L_unseen: a radiance field kept empty where no training camera looks.
+
+Few views leave space that no training ray crosses. Nothing in L_rec reaches
+it, so whatever density the field starts with or spreads there stays, and a
+held-out camera looking through it sees fog (docs/benchmark.md, `spheres`).
+L_empty does not help where Lo-NeRF itself holds that fog. This term draws
+points where held-out cameras look (uniform along random hemisphere rays,
+between near and far; at random times on dynamic scenes), keeps those that
+fewer than `min_views` training frusta hold (visibility.seen_count), and
+penalises the field's mean density there (losses.unseen_density). It needs
+no earlier stage, so it regularises Lo-NeRF as well as Hi-NeRF.
+
+Settings: the stage's `unseen` section (weight 0: off). Registered as a
+loss term (stages.terms.TERMS); methods/halo_unseen.py switches it on.
+"""
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from halo_jax import camera, geometry, losses, parallel, visibility
+from halo_jax.stages import loop, terms
+
+
+def _prepare(s: terms.Setup):
+  """{'points', 'dirs' [P, 3], 'times' [P, 1] (dynamic)} of bank points that
+  fewer than min_views training cameras see (numpy); P >= 1, and 'valid' [P]
+  is 0 for the one placeholder of a scene where every point is seen."""
+  u, ds = s.cfg.unseen, s.dataset
+  k_rays, k_t, k_time = jax.random.split(jax.random.PRNGKey(s.config.seed + 5), 3)
+  o, d = camera.random_hemisphere_rays(k_rays, u.bank_points, ds.radius,
+                                       ds.train.focal / ds.train.width)
+  t = jax.random.uniform(k_t, (u.bank_points, 1), minval=ds.near, maxval=ds.far)
+  points = o + t * d
+  w2c = visibility.world_to_camera(jnp.asarray(ds.train.c2w))
+  seen = jax.jit(visibility.seen_count, static_argnums=(2, 3, 4))(
+      points, w2c, float(ds.train.focal), int(ds.train.width), int(ds.train.height))
+  keep = np.flatnonzero(np.asarray(seen) < u.min_views)
+  valid = np.ones(max(keep.size, 1), np.float32)
+  if keep.size == 0:
+    keep, valid[:] = np.zeros(1, np.int64), 0.0
+  out = {"points": np.asarray(points)[keep], "dirs": np.asarray(d)[keep], "valid": valid}
+  if ds.train.times is not None:
+    out["times"] = np.asarray(jax.random.uniform(k_time, (u.bank_points, 1)))[keep]
+  return out
+
+
+def _value(x: terms.Inputs, cfg):
+  u, bank = cfg.unseen, x.data["unseen"]
+  k_pick, _ = x.keys
+  # a key of its own, apart from L_empty's draws from the same step keys
+  j = jax.random.randint(jax.random.fold_in(k_pick, 5), (u.num_points,), 0,
+                         bank["points"].shape[0])
+  j = parallel.shard_batch(loop.part_of(j, x.part), x.mesh)
+  extra = {"times": bank["times"][j]} if "times" in bank else {}
+  sigma, _ = x.model.apply({"params": x.params["nerf"]}, bank["points"][j], bank["dirs"][j],
+                           None, 0.0, **extra)
+  value = losses.unseen_density(sigma, bank["valid"][j] > 0)
+  return value, {"unseen": value}
+
+
+terms.TERMS.register("unseen", terms.Term(
+    active=lambda cfg: "unseen" in cfg and cfg.unseen.weight > 0,
+    weight=lambda cfg, step: cfg.unseen.weight,
+    value=_value, prepare=_prepare,
+    # held-out cameras on the hemisphere around the object
+    geometries=frozenset({geometry.Geometry.SPHERE})))

@@ -1,0 +1,81 @@
+"""L_unseen: the frustum test against a numpy projection, the loss's closed
+form, and the term on a real run (halo+unseen)."""
+import json
+import os
+
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from halo_jax import camera, losses, methods, pipeline, visibility
+
+
+def _numpy_in_frustum(point, c2w, focal, width, height):
+  """The same test written out with a plain inverse and a loop-free projection."""
+  p = np.linalg.inv(c2w) @ np.append(point, 1.0)
+  x, y, z = p[:3]
+  if z >= 0:  # OpenGL: in front means negative z
+    return False
+  return abs(focal * x / -z) <= width / 2 and abs(focal * y / -z) <= height / 2
+
+
+def test_seen_count_matches_a_numpy_projection():
+  rng = np.random.default_rng(0)
+  c2w = np.stack([camera.spherical_camera(4.0, az, el)
+                  for az, el in ((0, 10), (90, 40), (200, 70), (300, 5))])
+  points = rng.uniform(-4.5, 4.5, (2000, 3))
+  focal, w, h = 60.0, 100, 80
+  got = np.asarray(visibility.seen_count(jnp.asarray(points, jnp.float32),
+                                         visibility.world_to_camera(jnp.asarray(c2w)),
+                                         focal, w, h))
+  want = np.array([sum(_numpy_in_frustum(p, c, focal, w, h) for c in c2w) for p in points])
+  np.testing.assert_array_equal(got, want)
+  assert 0 < (want == 0).mean() < 1 and (want >= 2).any()  # the draw covers every case
+
+
+def test_the_centre_is_seen_by_every_camera_and_a_point_behind_one_by_none():
+  c2w = np.stack([camera.spherical_camera(4.0, az, 20) for az in (0, 120, 240)])
+  w2c = visibility.world_to_camera(jnp.asarray(c2w))
+  behind = 1.5 * c2w[0, :3, 3]  # beyond camera 0, outside the others' narrow views
+  count = visibility.seen_count(jnp.asarray([[0.0, 0.0, 0.0], behind]), w2c, 50.0, 40, 40)
+  assert count.tolist() == [3, 0]
+
+
+def test_unseen_density_is_the_mean_over_unseen_points_only():
+  sigma = jnp.array([1.0, 2.0, 3.0, 10.0])
+  unseen = jnp.array([True, False, True, False])
+  np.testing.assert_allclose(float(losses.unseen_density(sigma, unseen)), 2.0)
+  assert float(losses.unseen_density(sigma, jnp.zeros(4, bool))) == 0.0
+
+
+def test_halo_unseen_is_halo_plus_one_term_on_both_nerfs_and_left_out_where_all_is_seen():
+  from configs import llff, procedural
+  c = procedural.get_config("spheres_8view_cpu")
+  halo, ours = methods.apply(c, "halo"), methods.apply(c, "halo+unseen")
+  assert (ours.lo.unseen.weight, ours.hi.unseen.weight) == (0.01, 0.01)
+  ours.lo.unseen.weight = ours.hi.unseen.weight = 0.0
+  ours.method = "halo"
+  assert ours.to_dict() == halo.to_dict()
+  fern = methods.apply(llff.get_config("fern_4view_cpu"), "halo+unseen")
+  assert fern.lo.unseen.weight == fern.hi.unseen.weight == 0.0
+
+
+@pytest.mark.slow
+def test_l_unseen_lowers_lo_nerfs_density_where_no_camera_looks(config, scene_root, tmp_path):
+  # The same Lo-NeRF run twice, the term on (weight 1) and effectively off
+  # (weight 1e-9, so that its value is still logged): the unseen density
+  # ends lower with it, and the photometric fit is not broken.
+  config.data.root = scene_root
+  config.eval.lpips = False
+  config.stages = "lo"
+  c = methods.apply(config, "halo+unseen")
+  c.lo.update(steps=40, log_every=10, lr_init=5e-3, lr_final=5e-3)
+  ends = {}
+  for weight in (1.0, 1e-9):
+    c.lo.unseen.update(num_points=512, bank_points=8192, weight=weight)
+    wd = str(tmp_path / f"w{weight}")
+    infos = pipeline.run(c, wd)
+    assert infos["lo"]["skipped"] == 0 and infos["lo"]["eval"]["psnr"] > 8.0
+    log = [json.loads(line) for line in open(os.path.join(wd, "metrics.jsonl"))]
+    ends[weight] = [r["unseen"] for r in log if r.get("stage") == "lo" and "unseen" in r][-1]
+  assert ends[1.0] < 0.5 * ends[1e-9]
