@@ -14,7 +14,9 @@ and commits the runs came from. Plots: held-out PSNR against training
 seconds, one band (min to max over seeds) and mean line per method, one
 figure per scene. The README's results block (between its
 `<!-- results:begin -->` / `<!-- results:end -->` markers) is regenerated
-from the same files. Nothing here is typed by hand.
+from the same files. A "By stage" section sets each multi-stage method's
+Lo-NeRF beside its output and names every run whose later stage ended below
+an earlier one. Nothing here is typed by hand.
 """
 import collections
 import glob
@@ -51,6 +53,8 @@ def load(results_root):
   out = collections.defaultdict(lambda: collections.defaultdict(dict))
   for path in sorted(glob.glob(os.path.join(results_root, "*", "*", "*", "*", "seed*.json"))):
     suite, mode, scene, method = path.split(os.sep)[-5:-1]
+    if suite == "ablations":  # experiments/ablations.py reports its own studies
+      continue
     with open(path) as f:
       out[(suite, mode)][scene].setdefault(method, []).append(json.load(f))
   return out
@@ -244,6 +248,39 @@ def claims(scenes, method="halo"):
   return "\n".join(lines), "\n".join(per_scene)
 
 
+def stage_regressions(record):
+  """[(earlier stage, its PSNR, later stage, its PSNR)] where a later stage of
+  the run ended below an earlier one on the held-out views."""
+  scored = [(n, st["psnr"]) for n, st in record["stages"].items() if "psnr" in st]
+  return [(a, pa, b, pb) for i, (a, pa) in enumerate(scored) for b, pb in scored[i + 1:]
+          if pb < pa]
+
+
+def stage_table(scenes):
+  """Per scene and multi-stage method: Lo-NeRF's held-out PSNR at the end of
+  its stage beside the method's final PSNR, and every run whose later stage
+  ended below an earlier one."""
+  lines = ["| scene | method | seeds | Lo PSNR | final PSNR | final - Lo | steps per stage "
+           "(mean) | runs whose later stage ended below an earlier |",
+           "|---|---|---|---|---|---|---|---|"]
+  for scene in sorted(scenes):
+    for m in _methods(scenes[scene]):
+      rs = scenes[scene][m]
+      with_lo = [r for r in rs if "psnr" in r["stages"].get("lo", {})]
+      if not with_lo:
+        continue
+      lo = np.asarray([r["stages"]["lo"]["psnr"] for r in with_lo])
+      final = np.asarray([r["psnr"] for r in with_lo])
+      steps = ", ".join(f"{n} {np.mean([r['stages'][n]['step'] for r in rs]):.0f}"
+                        for n in rs[0]["stages"])
+      flags_ = [f"seed{r['seed']}: {b} {pb:.2f} < {a} {pa:.2f}" for r in with_lo
+                for a, pa, b, pb in stage_regressions(r)]
+      lines.append(f"| {scene} | {m} | {len(with_lo)} | {mean_pm(lo)} | {mean_pm(final)} | "
+                   f"{np.mean(final - lo):+.2f} | {steps} | "
+                   f"{'**' + '; '.join(flags_) + '**' if flags_ else 'none'} |")
+  return "\n".join(lines) if len(lines) > 2 else ""
+
+
 def provenance_lines(scenes):
   recs = [r for by in scenes.values() for rs in by.values() for r in rs]
   prov = [r.get("provenance", {}) for r in recs]
@@ -287,6 +324,13 @@ def write_suite(suite, mode, scenes, docs):
             f"failure on a scene of that kind (its held-out curve ends ≥ {FAILURE_DROP_DB} dB "
             "below its peak), else 0. Then per scene, where HALO trails a baseline, "
             "FreeNeRF included.", "", by_kind, "", per_scene, ""]
+  stages = stage_table(scenes)
+  if stages:
+    out += ["## By stage", "",
+            "Each multi-stage method's Lo-NeRF at the end of its stage against the method's "
+            "output, on the same held-out views; a run whose later stage ended below an "
+            "earlier one is named. Steps per stage let a slow machine be told from a stage "
+            "that did not train.", "", stages, ""]
   for scene in sorted(scenes):
     by = scenes[scene]
     cfg = next(iter(by.values()))[0]["config"]

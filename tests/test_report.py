@@ -112,3 +112,25 @@ def test_frequency_calibration_report_from_result_files(tmp_path):
   assert "3 of 3 picks within 1 dB" in text and "### Leave-one-out, warped rho" in text
   assert "| c | 0.575 | 5:1 | 23.00 | 5:1 | 23.00 | 0.00 | 5:1 |" in text
   assert os.path.exists(os.path.join(docs, "frequency_a.png"))
+
+
+def test_by_stage_names_every_run_whose_later_stage_ended_below_an_earlier(tmp_path):
+  root = str(tmp_path / "results")
+  for seed, (lo, hi) in enumerate(((20.0, 21.0), (22.0, 21.5))):
+    rec = _record(hi, [[1, hi]])
+    rec["seed"] = seed
+    rec["stages"] = {"lo": {"step": 10, "psnr": lo}, "ray": {"step": 5},
+                     "hi": {"step": 20, "psnr": hi}}
+    _write(root, "halo", seed, rec)
+  _write(root, "nerf_tuned", 0, _record(20.0, [[1, 20.0]]))  # one stage: no row
+  # a study's files beside the suites' are not read as a suite
+  study = os.path.join(root, "ablations", "fog", "s1", "halo", "seed0.json")
+  os.makedirs(os.path.dirname(study))
+  with open(study, "w") as f:
+    json.dump(_record(1.0, [[1, 1.0]]), f)
+  suites = report.load(root)
+  assert set(suites) == {("cpu", "time")}
+  table = report.stage_table(suites[("cpu", "time")])
+  assert "| s1 | halo | 2 | 21.00 ± 1.41 | 21.25 ± 0.35 | +0.25 | lo 10, ray 5, hi 20 |" in table
+  assert "seed1: hi 21.50 < lo 22.00" in table and "seed0" not in table
+  assert "nerf_tuned" not in table
