@@ -95,6 +95,10 @@ STUDIES = {
                     "Hi at half the CPU rate"),
             Variant("halo+freenerf", "halo+freenerf",
                     note="Hi's own P.E. bands open over 90% of Hi's steps"),
+            Variant("hi_lr_5e-4+density_bias_-4", "halo",
+                    (("hi.lr_init", 5e-4), ("hi.lr_final", 5e-5))
+                    + _both("model.density_bias", -4.0),
+                    "Hi at a quarter of the CPU rate, and both NeRFs start at softplus(raw - 4)"),
         ),
         reference="halo", seeds=2),
     "fog": Study(
@@ -110,8 +114,10 @@ STUDIES = {
                     + _both("model.density_bias", 0.0), "ReLU density (the authors')"),
             Variant("halo+unseen", "halo+unseen",
                     note="L_unseen on Lo and Hi, weight 0.01 (methods/halo_unseen.py)"),
-            Variant("halo+unseen_0.1", "halo+unseen", _both("unseen.weight", 0.1),
-                    "L_unseen on Lo and Hi, weight 0.1"),
+            Variant("nerf_tuned", "nerf_tuned", note="the baseline, as in the suite"),
+            Variant("nerf_tuned+density_bias_-4", "nerf_tuned",
+                    (("hi.model.density_bias", -4.0),),
+                    "the baseline started at softplus(raw - 4): does the start help it too?"),
         ),
         reference="halo", seeds=3),
 }

@@ -44,7 +44,7 @@ def define_flags():
   flags.DEFINE_string("docs", os.path.join(REPO, "docs", "results"), "Output folder.")
   flags.DEFINE_string("readme", os.path.join(REPO, "README.md"), "README to update ('': none).")
 
-METHOD_ORDER = ("nerf_paper", "nerf_tuned", "freenerf", "halo", "halo+freenerf")
+METHOD_ORDER = ("nerf_paper", "nerf_tuned", "freenerf", "halo", "halo+freenerf", "halo+unseen")
 BASELINE = "nerf_tuned"
 
 
