@@ -78,6 +78,15 @@ def _both(field, value):
   return ((f"lo.{field}", value), (f"hi.{field}", value))
 
 
+# Each variant states every field it is about, so that it stays what it says
+# when a default moves (methods/halo.py took two of these settings).
+_NEUTRAL_START = _both("model.density_bias", -1.0)
+
+
+def _hi_lr(lr):
+  return (("hi.lr_init", lr), ("hi.lr_final", lr / 10))
+
+
 _DNERF = tuple(s for s in suites.CPU.scenes if s.name.startswith("dnerf_"))
 _PROCEDURAL = tuple(s for s in suites.CPU.scenes if s.name in ("spheres", "lattice"))
 
@@ -88,16 +97,16 @@ STUDIES = {
                   "which setting of Hi keeps Lo's gain."),
         scenes=_DNERF,
         variants=(
-            Variant("halo", "halo", note="Hi at 2e-3 -> 2e-4 (the CPU rate)"),
-            Variant("hi_lr_5e-4", "halo", (("hi.lr_init", 5e-4), ("hi.lr_final", 5e-5)),
+            Variant("halo", "halo", _hi_lr(2e-3) + _NEUTRAL_START,
+                    "Hi at 2e-3 -> 2e-4 (the CPU rate), density softplus(raw - 1)"),
+            Variant("hi_lr_5e-4", "halo", _hi_lr(5e-4) + _NEUTRAL_START,
                     "Hi at a quarter of the CPU rate"),
-            Variant("hi_lr_1e-3", "halo", (("hi.lr_init", 1e-3), ("hi.lr_final", 1e-4)),
+            Variant("hi_lr_1e-3", "halo", _hi_lr(1e-3) + _NEUTRAL_START,
                     "Hi at half the CPU rate"),
-            Variant("halo+freenerf", "halo+freenerf",
-                    note="Hi's own P.E. bands open over 90% of Hi's steps"),
+            Variant("halo+freenerf", "halo+freenerf", _hi_lr(2e-3) + _NEUTRAL_START,
+                    "Hi's own P.E. bands open over 90% of Hi's steps"),
             Variant("hi_lr_5e-4+density_bias_-4", "halo",
-                    (("hi.lr_init", 5e-4), ("hi.lr_final", 5e-5))
-                    + _both("model.density_bias", -4.0),
+                    _hi_lr(5e-4) + _both("model.density_bias", -4.0),
                     "Hi at a quarter of the CPU rate, and both NeRFs start at softplus(raw - 4)"),
         ),
         reference="halo", seeds=2),
@@ -107,13 +116,14 @@ STUDIES = {
                   "(spheres at seed 1), and narrows lattice's spread over seeds."),
         scenes=_PROCEDURAL,
         variants=(
-            Variant("halo", "halo", note="softplus(raw - 1): ~0.31 per unit at the start"),
+            Variant("halo", "halo", _NEUTRAL_START,
+                    "softplus(raw - 1): ~0.31 per unit at the start"),
             Variant("density_bias_-4", "halo", _both("model.density_bias", -4.0),
                     "softplus(raw - 4): ~0.018 per unit at the start"),
             Variant("relu", "halo", _both("model.density_activation", "relu")
                     + _both("model.density_bias", 0.0), "ReLU density (the authors')"),
-            Variant("halo+unseen", "halo+unseen",
-                    note="L_unseen on Lo and Hi, weight 0.01 (methods/halo_unseen.py)"),
+            Variant("halo+unseen", "halo+unseen", _NEUTRAL_START,
+                    "L_unseen on Lo and Hi, weight 0.01 (methods/halo_unseen.py)"),
             Variant("nerf_tuned", "nerf_tuned", note="the baseline, as in the suite"),
             Variant("nerf_tuned+density_bias_-4", "nerf_tuned",
                     (("hi.model.density_bias", -4.0),),

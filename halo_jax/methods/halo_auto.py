@@ -1,10 +1,11 @@
 """HALO with Lo-NeRF's P.E. frequency chosen by the frequency rule
 (halo_jax/tuning.py) instead of set by hand: the search runs once in the
 run's workdir before training, outside the training budget."""
-from halo_jax.methods import base
+from halo_jax.methods import base, halo
 
 
 def _auto(c):
+  halo.apply(c)
   c.lo.encoding.auto = True
   return c
 

@@ -6,10 +6,11 @@ training), so they can be combined; no published work does. Lo-NeRF's part
 of Hi-NeRF's encoding (hi.encoding.with_lo) is left unmasked: it is low
 frequency already.
 """
-from halo_jax.methods import base, freenerf
+from halo_jax.methods import base, freenerf, halo
 
 
 def apply(c):
+  halo.apply(c)
   c.hi.freq_reg.end = freenerf.FREQ_REG_END
   return c
 

@@ -9,12 +9,13 @@ rays); on forward-facing and light-field scenes every point a test view sees
 is in a training frustum, and the method is HALO unchanged.
 """
 from halo_jax import datasets, geometry
-from halo_jax.methods import base
+from halo_jax.methods import base, halo
 
 WEIGHT = 0.01
 
 
 def apply(c):
+  halo.apply(c)
   if datasets.spec_of(c.data).geometry == geometry.Geometry.SPHERE:
     for name in ("lo", "hi"):
       if c[name].kind == "radiance":
