@@ -216,6 +216,28 @@ def _mean_std(xs):
   return f"{statistics.mean(xs):.2f} ± {statistics.stdev(xs):.2f}"
 
 
+def _overall(study: Study, recs) -> list:
+  """Lines of a table: per variant, its difference from the reference over
+  every (scene, seed) both ran, and how many of those it lost."""
+  rows = []
+  for v in study.variants:
+    if v.name == study.reference:
+      continue
+    deltas = []
+    for scene in study.scenes:
+      ref = {r["seed"]: r["psnr"] for r in recs.get((scene.name, study.reference), [])}
+      deltas += [r["psnr"] - ref[r["seed"]] for r in recs.get((scene.name, v.name), [])
+                 if r["seed"] in ref]
+    if deltas:
+      rows.append(f"| `{v.name}` | {len(deltas)} | {statistics.mean(deltas):+.2f} | "
+                  f"{min(deltas):+.2f} | {sum(d < 0 for d in deltas)} |")
+  if not rows:
+    return []
+  return ["", "## Over all scenes and seeds", "",
+          f"Each variant against `{study.reference}` over the (scene, seed) pairs both ran.", "",
+          "| variant | pairs | mean Δ | worst Δ | pairs lost |", "|---|---|---|---|---|"] + rows
+
+
 def report(study_name: str, study: Study, results: str) -> str:
   """The study's page (markdown), from its result files."""
   recs = read_records(results, study_name)
@@ -260,6 +282,7 @@ def report(study_name: str, study: Study, results: str) -> str:
       lines += ["", "Per seed: " + "; ".join(
           f"`{v.name}` " + ", ".join(f"{r['psnr']:.2f}" for r in sorted(rs, key=lambda r: r["seed"]))
           for v, rs in rows if rs) + "."]
+  lines += _overall(study, recs)
   commits = sorted({(r["provenance"].get("git") or {}).get("commit", "?")[:7]
                     for rs in recs.values() for r in rs})
   if commits:

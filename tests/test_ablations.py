@@ -1,0 +1,55 @@
+"""experiments/ablations.py: studies run at the suite's matched steps on
+validation views, and their report, from hand-made result files."""
+import json
+import os
+import sys
+
+sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
+from experiments import ablations  # pylint: disable=g-import-not-at-top
+
+
+def _write(path, rec):
+  os.makedirs(os.path.dirname(path), exist_ok=True)
+  with open(path, "w") as f:
+    json.dump(rec, f)
+
+
+def _suite_run(root, scene, seed, steps):
+  _write(os.path.join(root, "cpu", "time", scene, "halo", f"seed{seed}.json"),
+         {"stages": {n: {"step": s} for n, s in steps.items()}})
+
+
+def test_a_study_run_stops_each_stage_at_the_suites_mean_steps_on_validation_views(tmp_path):
+  root = str(tmp_path / "results")
+  _suite_run(root, "spheres", 0, {"lo": 400, "ray": 700, "hi": 500})
+  _suite_run(root, "spheres", 1, {"lo": 500, "ray": 50, "hi": 600})
+  study = ablations.STUDIES["fog"]
+  scene = next(s for s in study.scenes if s.name == "spheres")
+  variant = next(v for v in study.variants if v.name == "density_bias_-4")
+  c = ablations.configure(study, scene, variant, 1, str(tmp_path / "scratch"), root)
+  assert (c.data.test_split, c.data.test_views) == ("val", "all")
+  assert c.budget_s == 0.0 and c.seed == 1
+  # the mean of the suite's steps, raised to the stage's floor where below it
+  assert (c.lo.stop_at_step, c.ray.stop_at_step, c.hi.stop_at_step) == (450, 375, 550)
+  assert c.lo.steps > c.lo.stop_at_step  # schedules still span the stage's steps
+  assert c.lo.model.density_bias == c.hi.model.density_bias == -4.0
+  reference = next(v for v in study.variants if v.name == study.reference)
+  c = ablations.configure(study, scene, reference, 0, str(tmp_path / "scratch"), root)
+  assert c.lo.model.density_bias == -1.0  # the variant says its start, whatever the default
+
+
+def test_report_gives_each_variant_against_the_reference_per_seed(tmp_path):
+  root = str(tmp_path / "results")
+  study = ablations.STUDIES["fog"]
+  for variant, seed, psnr, lo in (("halo", 0, 15.0, 14.0), ("halo", 1, 11.0, 10.0),
+                                  ("density_bias_-4", 0, 16.0, 15.0),
+                                  ("density_bias_-4", 1, 20.0, 17.0)):
+    _write(os.path.join(root, "ablations", "fog", "spheres", variant, f"seed{seed}.json"),
+           {"scene": "spheres", "variant": variant, "seed": seed, "psnr": psnr, "wall_s": 100.0,
+            "stages": {"lo": {"step": 1, "psnr": lo}, "hi": {"step": 2, "psnr": psnr}},
+            "provenance": {"git": {"commit": "abc1234"}}})
+  text = ablations.report("fog", study, root)
+  assert "| `halo` | 2 | 13.00 ± 2.83 | 12.00 ± 2.83 | +1.00 |  | 100 |" in text
+  assert "| `density_bias_-4` | 2 | 18.00 ± 2.83 | 16.00 ± 1.41 | +2.00 | +5.00 | 100 |" in text
+  assert "| `density_bias_-4` | 2 | +5.00 | +1.00 | 0 |" in text
+  assert "`relu` | 0 |" in text and "## lattice" not in text
