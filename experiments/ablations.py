@@ -124,6 +124,8 @@ STUDIES = {
                     + _both("model.density_bias", 0.0), "ReLU density (the authors')"),
             Variant("halo+unseen", "halo+unseen", _NEUTRAL_START,
                     "L_unseen on Lo and Hi, weight 0.01 (methods/halo_unseen.py)"),
+            Variant("density_bias_-4+unseen", "halo+unseen", _both("model.density_bias", -4.0),
+                    "both: the empty start and L_unseen (weight 0.01)"),
             Variant("nerf_tuned", "nerf_tuned", note="the baseline, as in the suite"),
             Variant("nerf_tuned+density_bias_-4", "nerf_tuned",
                     (("hi.model.density_bias", -4.0),),
