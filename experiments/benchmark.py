@@ -63,8 +63,8 @@ def result_path(results, suite_name, mode, scene, method, seed):
 def configure(suite: suites.Suite, scene: suites.Scene, method: str, seed: int, mode: str,
               scratch: str):
   """The run's config: the scene's config as `method`, this seed and mode."""
-  from halo_jax import methods, pipeline  # pylint: disable=g-import-not-at-top
-  c = methods.apply(runs.load_config(scene.config), method)
+  from halo_jax import pipeline  # pylint: disable=g-import-not-at-top
+  c = runs.load_config_as(scene.config, method)
   c.seed = seed
   if c.data.kind == "procedural" and not c.data.root:  # generated once, shared by runs
     c.data.root = os.path.join(scratch, "scenes",

@@ -20,7 +20,7 @@ import numpy as np
 from ml_collections import config_flags
 
 from halo_jax import camera, geometry, models, ray_fields
-from halo_jax import methods, raycast
+from halo_jax import raycast, runs
 from halo_jax.stages import loop, radiance, ray
 
 FLAGS = flags.FLAGS
@@ -144,7 +144,8 @@ def main(argv):
   results["steps"]["ray"] = step_throughput(lf, c.ray, rf_params, jax.device_put(rdata),
                                             c.ray.batch_rays, 1)
   nerf_step("hi", c, "hi", guide=(rf, rf_params["ray"]))
-  nerf_step("nerf", methods.apply(c, "nerf_tuned"), "hi")
+  nerf_step("nerf", runs.load_config_as(config_flags.get_config_filename(FLAGS["config"]),
+                                        "nerf_tuned"), "hi")
   # Held-out rendering with the Hi field (forward only).
   model = models.nerf_from_config(c, "hi")
   ev = {b: raycast.make_eval_fn(model, c.hi.sampler, near=near, far=far, white_background=True,

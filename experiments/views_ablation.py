@@ -19,7 +19,7 @@ from absl import app, flags, logging
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 if __package__ in (None, ""):
   sys.path.insert(0, REPO)
-from halo_jax import methods, runs  # pylint: disable=g-import-not-at-top
+from halo_jax import runs  # pylint: disable=g-import-not-at-top
 from experiments import run_file  # pylint: disable=g-import-not-at-top
 
 FLAGS = flags.FLAGS
@@ -52,7 +52,7 @@ def run_all(path):
       if (method, k) in done:
         print(f"done  {method} k={k}")
         continue
-      c = methods.apply(base, method)
+      c = runs.load_config_as(FLAGS.config, method)
       c.data.train_views = ",".join(views[:k])
       c.budget_s = FLAGS.budget_s
       c.eval.curve_views = 2

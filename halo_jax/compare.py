@@ -41,12 +41,13 @@ def define_flags():
   flags.mark_flags_as_required(["config", "workdir"])
 
 
-def method_configs(config, names, all_views):
+def method_configs(load, names, all_views):
   """{method: its config on this scene} (halo_jax.methods), plus
-  nerf_tuned on every training view with all_views."""
-  out = {name: methods.apply(config, name) for name in names}
+  nerf_tuned on every training view with all_views. load: method -> that
+  method's config (each applied once to the scene's own config)."""
+  out = {name: load(name) for name in names}
   if all_views:
-    ref = methods.apply(config, "nerf_tuned")
+    ref = load("nerf_tuned")
     ref.data.train_views = "all"
     out["nerf_tuned_all_views"] = ref
   for c in out.values():
@@ -104,8 +105,8 @@ def main(argv):
 
 
 def run(config):
-  """The experiment in FLAGS.workdir (locked by main)."""
-  config = FLAGS.config
+  """The experiment in FLAGS.workdir (locked by main); `config` is --config's
+  (each method's config is loaded again from its file, as that method)."""
   os.makedirs(FLAGS.workdir, exist_ok=True)
   results_path = os.path.join(FLAGS.workdir, "results.json")
   results = {}
@@ -113,7 +114,22 @@ def run(config):
     with open(results_path) as f:
       results = json.load(f)
   n_test = 0
-  for name, cfg in method_configs(config, FLAGS.methods, FLAGS.all_views_reference).items():
+  spec = config_flags.get_config_filename(FLAGS["config"])
+  overrides = config_flags.get_override_values(FLAGS["config"])
+  flat = {}
+
+  def flatten(d, prefix=""):
+    for k, v in d.items():
+      if isinstance(v, dict):
+        flatten(v, f"{prefix}{k}.")
+      else:
+        flat[prefix + k] = v
+  flatten(overrides)
+  # Each method is applied once to the scene's own config (methods.apply),
+  # then the command line's overrides, as --config gave them.
+  load = lambda name: runs.load_config_as(spec, name, flat)  # pylint: disable=unnecessary-lambda-assignment
+  del config
+  for name, cfg in method_configs(load, FLAGS.methods, FLAGS.all_views_reference).items():
     dataset = datasets.load(cfg.data, os.path.join(FLAGS.workdir, name))
     n_test = len(dataset.test.names)
     results[name] = runs.run_method(cfg, os.path.join(FLAGS.workdir, name), dataset)

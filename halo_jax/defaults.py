@@ -261,9 +261,10 @@ def base_config() -> ml_collections.ConfigDict:
   """All fields, set to the paper's full-resolution Blender protocol."""
   c = ml_collections.ConfigDict()
   c.seed = 0
-  # The method (halo_jax.methods) that made this config, for the record; the
-  # pipeline reads only the stage sections.
-  c.method = "halo"
+  # The method (halo_jax.methods) that made this config ('' until one has):
+  # methods.apply makes a config into one method, once; the pipeline reads
+  # only the stage sections.
+  c.method = ""
   c.stages = "lo,ray,hi"      # the stages to train now (the ones they need are restored)
   c.final_stage = "hi"        # the stage whose field the method outputs
   # Training-time budget in seconds for the whole pipeline (0: none). When set,

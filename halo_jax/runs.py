@@ -25,6 +25,22 @@ def load_config(spec: str):
   return module.get_config(variant) if variant else module.get_config()
 
 
+def load_config_as(spec: str, method: str, overrides=None):
+  """The config `spec` ('file.py[:variant]') made into `method`, applied once
+  to the scene's own config: the variant gets the method's suffix (a method
+  the variant already names is replaced; a file's variant may be the method
+  alone, as configs/default.py's). `overrides`: {dotted field: value} set
+  afterwards."""
+  from halo_jax import methods  # pylint: disable=g-import-not-at-top
+  path, _, variant = spec.partition(":")
+  parts, flags, _ = methods.split_variant(variant, ("cpu", "joint"))
+  kept = [f for f in ("cpu", "joint") if f in flags]
+  c = load_config(f"{path}:{'_'.join(parts + kept + [method])}")
+  for field, value in (overrides or {}).items():
+    set_field(c, field, value)
+  return c
+
+
 def set_field(config, dotted: str, value):
   """config.<dotted> = value; KeyError naming the field when it does not exist."""
   *parents, leaf = dotted.split(".")

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from conftest import tiny_config
-from halo_jax import losses, methods, models, pipeline, raycast, samplers, validate
+from halo_jax import losses, methods, models, pipeline, raycast, runs, samplers, validate
 from halo_jax.registry import ConfigError
 from halo_jax.stages import batches, loop
 
@@ -123,21 +123,26 @@ def test_variants_name_the_method(variant, parts, flags, method):
 def test_methods_configure_the_stages_they_describe():
   from configs import blender
   c = blender.get_config("lego_8view_cpu")
-  paper = methods.apply(c, "nerf_paper")
+  paper = blender.get_config("lego_8view_cpu_nerf_paper")
   assert paper.method == "nerf_paper" and paper.stages == "hi"
   assert (paper.hi.sampler.kind, paper.hi.sampler.num_coarse, paper.hi.sampler.num_samples) == (
       "coarse_fine", 64, 128)
   assert paper.hi.model.density_activation == "relu" and paper.hi.density_noise == 0.0
   assert paper.hi.one_image and paper.hi.batch_rays == 1024
-  free = methods.apply(c, "freenerf")
+  free = blender.get_config("lego_8view_cpu_freenerf")
   assert free.hi.freq_reg.end == 0.9 and free.hi.occlusion.weight == 0.01
-  both = methods.apply(c, "halo+freenerf")
+  both = blender.get_config("lego_8view_cpu_halo+freenerf")
   assert pipeline.needed(both) == ("lo", "ray", "hi") and both.hi.freq_reg.end == 0.9
-  assert c.method == "halo" and c.hi.freq_reg.end == 0.0  # apply copies
   for name in methods.METHODS.names():
-    validate.validate(methods.apply(c, name))
+    validate.validate(runs.load_config_as("configs/blender.py:lego_8view_cpu", name))
+  neutral = tiny_config()
+  assert neutral.method == ""
   with pytest.raises(ConfigError, match="method='dietnerf' is not a known method"):
-    methods.apply(c, "dietnerf")
+    methods.apply(neutral, "dietnerf")
+  # a method is applied once: HALO's settings must not reach a baseline
+  assert methods.apply(c, "halo").to_dict() == c.to_dict()
+  with pytest.raises(ValueError, match="already method 'halo'.*suffix _nerf_tuned"):
+    methods.apply(c, "nerf_tuned")
 
 
 def _llff():
@@ -205,12 +210,11 @@ def test_validate_names_the_field(make, message):
 
 
 def test_every_shipped_config_validates():
-  from configs import blender, default, dnerf, llff, stanford_lf
-  for c in (default.get_config(), blender.get_config("lego_8view"),
-            blender.get_config("lego_oneside_cpu"), llff.get_config("fern_4view_cpu_joint"),
-            dnerf.get_config("lego"), stanford_lf.get_config("knights")):
+  for spec in ("configs/default.py", "configs/blender.py:lego_8view",
+               "configs/blender.py:lego_oneside_cpu", "configs/llff.py:fern_4view_cpu_joint",
+               "configs/dnerf.py:lego", "configs/stanford_lf.py:knights"):
     for name in ("halo", "nerf_tuned"):
-      validate.validate(methods.apply(c, name))
+      validate.validate(runs.load_config_as(spec, name))
 
 
 def test_auto_frequency_is_accepted_for_every_kind_with_a_lo_nerf():

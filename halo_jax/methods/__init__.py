@@ -27,8 +27,22 @@ METHODS.register("halo+unseen", halo_unseen.METHOD)
 
 
 def apply(config, name: str):
-  """A copy of `config` turned into method `name` (METHODS or ALIASES)."""
+  """A copy of `config` turned into method `name` (METHODS or ALIASES).
+
+  A method is applied once, to a scene's config as its file builds it:
+  making a config that is already one method into another would carry the
+  first one's settings into the second (HALO's into a baseline). That is
+  refused; load the scene's variant with the method's suffix instead
+  (runs.load_config_as).
+  """
   name = ALIASES.get(name, name)
+  done = config.get("method", "")
+  if done == name:
+    return copy.deepcopy(config)
+  if done:
+    raise ValueError(f"this config is already method {done!r}; to get {name!r} on the same "
+                     f"scene, load the scene's variant with the suffix _{name} "
+                     "(halo_jax.runs.load_config_as)")
   c = METHODS.get(name, "method").apply(copy.deepcopy(config))
   c.method = name
   return c
