@@ -14,28 +14,24 @@ def _write(path, rec):
     json.dump(rec, f)
 
 
-def _suite_run(root, scene, seed, steps):
-  _write(os.path.join(root, "cpu", "time", scene, "halo", f"seed{seed}.json"),
-         {"stages": {n: {"step": s} for n, s in steps.items()}})
-
-
 def test_a_study_run_stops_each_stage_at_the_suites_mean_steps_on_validation_views(tmp_path):
   root = str(tmp_path / "results")
-  _suite_run(root, "spheres", 0, {"lo": 400, "ray": 700, "hi": 500})
-  _suite_run(root, "spheres", 1, {"lo": 500, "ray": 50, "hi": 600})
   study = ablations.STUDIES["fog"]
   scene = next(s for s in study.scenes if s.name == "spheres")
   variant = next(v for v in study.variants if v.name == "density_bias_-4")
   c = ablations.configure(study, scene, variant, 1, str(tmp_path / "scratch"), root)
   assert (c.data.test_split, c.data.test_views) == ("val", "all")
   assert c.budget_s == 0.0 and c.seed == 1
-  # the mean of the suite's steps, raised to the stage's floor where below it
-  assert (c.lo.stop_at_step, c.ray.stop_at_step, c.hi.stop_at_step) == (450, 375, 550)
+  assert (c.lo.stop_at_step, c.ray.stop_at_step, c.hi.stop_at_step) == (466, 732, 570)
   assert c.lo.steps > c.lo.stop_at_step  # schedules still span the stage's steps
   assert c.lo.model.density_bias == c.hi.model.density_bias == -4.0
   reference = next(v for v in study.variants if v.name == study.reference)
   c = ablations.configure(study, scene, reference, 0, str(tmp_path / "scratch"), root)
   assert c.lo.model.density_bias == -1.0  # the variant says its start, whatever the default
+  # a suite run that trained less than a stage's floor is raised to it
+  fern = [s for s in ablations.suites.CPU.scenes if s.name == "fern_4view"][0]
+  c = ablations.configure(study, fern, reference, 0, str(tmp_path / "scratch"), root)
+  assert c.ray.stop_at_step == c.ray.min_steps == 200
 
 
 def test_report_gives_each_variant_against_the_reference_per_seed(tmp_path):
