@@ -132,6 +132,24 @@ STUDIES = {
                     "the baseline started at softplus(raw - 4): does the start help it too?"),
         ),
         reference="halo", seeds=3),
+    "static_hi": Study(
+        title="Static scenes: HALO's Hi-NeRF beside the authors' choices",
+        question=("Whether the authors' choices for Hi-NeRF, where ours differ, would do better "
+                  "on the built-in scenes: the window tightened on the near side only, Hi "
+                  "started without the exact copy (the layers reading the encoding fresh), and "
+                  "L_empty from a later step."),
+        scenes=_PROCEDURAL,
+        variants=(
+            Variant("halo", "halo", note="HALO as configured (an empty start, the exact copy)"),
+            Variant("near_only", "halo", (("hi.sampler.near_only", True),),
+                    "the depth-guided window tightened on the near side only (the authors')"),
+            Variant("partial_copy", "halo",
+                    (("hi.encoding.with_lo", False), ("hi.init_from_lo", True)),
+                    "Hi from Lo's weights, the input layer fresh (our `init_from_lo` alone)"),
+            Variant("empty_from_step_100", "halo", (("hi.empty.start_step", 100),),
+                    "L_empty switched on after 100 of Hi's ~570 steps"),
+        ),
+        reference="halo", seeds=3),
 }
 
 
