@@ -316,7 +316,8 @@ def report(study_name: str, study: Study, results: str) -> str:
     per_seed = sorted({r["seed"] for _, rs in rows for r in rs})
     if len(per_seed) > 1:
       lines += ["", "Per seed: " + "; ".join(
-          f"`{v.name}` " + ", ".join(f"{r['psnr']:.2f}" for r in sorted(rs, key=lambda r: r["seed"]))
+          f"`{v.name}` " + ", ".join(f"s{r['seed']} {r['psnr']:.2f}"
+                                     for r in sorted(rs, key=lambda r: r["seed"]))
           for v, rs in rows if rs) + "."]
   lines += _overall(study, recs)
   commits = sorted({(r["provenance"].get("git") or {}).get("commit", "?")[:7]

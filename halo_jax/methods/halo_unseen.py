@@ -1,10 +1,11 @@
 """halo+unseen: HALO with L_unseen on Lo-NeRF and Hi-NeRF (stages/unseen.py).
 
 HALO's L_empty keeps Hi-NeRF empty where Lo-NeRF is empty, but nothing keeps
-Lo-NeRF empty where no training ray passes: its starting density survives
-there as fog, and Hi-NeRF, started as Lo's copy, keeps it. This method adds
-one term to both NeRF stages: the mean density at random points that no
-training camera sees. Only where held-out cameras surround the object (sphere
+Lo-NeRF from filling space with fog that the training rays cannot see (white
+on a white background), and Hi-NeRF, started as Lo's copy, keeps it. This
+method adds one term to both NeRF stages: the mean density at random points
+that no training camera sees. The low-frequency field carries that push to
+the fog beside those points (docs/results/ablation_fog.md). Only where held-out cameras surround the object (sphere
 rays); on forward-facing and light-field scenes every point a test view sees
 is in a training frustum, and the method is HALO unchanged.
 """
