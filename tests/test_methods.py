@@ -271,5 +271,8 @@ def test_halo_settings_reach_every_halo_method_and_no_baseline():
   for name in ("halo", "halo+freenerf", "halo+unseen", "halo_auto"):
     hook = dnerf.get_config(f"hook_cpu_{name}")
     assert (hook.hi.lr_init, hook.hi.lr_final) == halo.COPY_LR, name
+    assert procedural.get_config(f"spheres_8view_cpu_{name}").lo.precrop_steps == 0, name
+  assert hook.lo.precrop_steps == 200  # dynamic scenes keep Lo's crop (not measured without)
+  assert procedural.get_config("spheres_8view_cpu_nerf_tuned").hi.precrop_steps == 200
   assert dnerf.get_config("hook_cpu_nerf_tuned").hi.lr_init == 2e-3
   assert procedural.get_config("spheres_8view_cpu").hi.lr_init == 2e-3  # static: unchanged
