@@ -356,8 +356,7 @@ def _loop(run, step_fn, data, base_key, bar, start, cfg):
   # The time cap stops a stage only after its floor of steps (min_steps), so
   # that no stage of a method is left untrained on a slow machine.
   floor = min(cfg.get("min_steps", 0), cfg.steps)
-  last = min(cfg.steps, cfg.get("stop_at_step", 0) or cfg.steps)
-  for step in range(start + 1, last + 1):
+  for step in range(start + 1, progress.last_step(cfg) + 1):
     if cfg.max_seconds and run.wall_s >= cfg.max_seconds and step > floor:
       step -= 1
       break

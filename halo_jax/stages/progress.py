@@ -2,6 +2,11 @@
 import tqdm
 
 
+def last_step(cfg) -> int:
+  """The step a stage's loop ends at: `steps`, or `stop_at_step` when set and sooner."""
+  return min(cfg.steps, cfg.get("stop_at_step", 0) or cfg.steps)
+
+
 class ProgressBar:
   """tqdm over training seconds when the stage has a time budget (so its ETA
   is the budget's), else over steps; shows steps and rays/s either way."""
@@ -18,7 +23,7 @@ class ProgressBar:
                            bar_format="{l_bar}{bar}| {n:.0f}/{total:.0f} s "
                                       "[{elapsed}<{remaining}{postfix}]")
     else:
-      last = min(cfg.steps, cfg.get("stop_at_step", 0) or cfg.steps)
+      last = last_step(cfg)
       self.bar = tqdm.tqdm(total=last, initial=min(start_step, last), desc=name, unit="step",
                            dynamic_ncols=True, mininterval=1.0)
     self.shown = {}
