@@ -4,7 +4,7 @@ Variants (the string after the colon):
   <scene>_8view        paper protocol, 400x400 (factor 2), all 200 test views
   <scene>_8view_cpu    100x100 (factor 8), test views r_0, r_8, ..., r_192,
                        CPU-sized models and a wall-clock budget (docs/results_lego_cpu.md)
-  lego_oneside[_cpu]   the 14 one-side lego views (L=5, s=1; lambda 0.01)
+  lego_oneside[_cpu]   the 14 one-side lego views (Lo-P.E. L=5, s=1)
   lego_all[_cpu]       all 100 training views (the upper reference)
 Append a method's name to any variant for that method on the same views
 (halo_jax.methods, docs/baselines.md): `_nerf_tuned` (alias `_nerf`: the same
@@ -44,9 +44,8 @@ def get_config(arg: str = "lego_8view"):
       raise ValueError(f"no 8-view list for scene {scene!r}; known: {sorted(EIGHT_VIEWS)}")
     c.data.train_views = ",".join(EIGHT_VIEWS[scene].split())
   elif setting == "oneside" and scene == "lego":
-    c.data.train_views = ",".join(ONE_SIDE_LEGO.split())
-    c.lo.encoding.scale = 1.0
-    c.hi.empty.weight = 0.01
+    c.data.update(train_views=",".join(ONE_SIDE_LEGO.split()), protocol="lego_oneside")
+    c.lo.encoding.scale = 1.0   # the paper's Lo-P.E. for these views: L=5, s=1
   elif setting == "all":
     c.data.train_views = "all"
   else:

@@ -12,10 +12,8 @@ Append a method's name for that method (halo_jax.methods): `_nerf_tuned`
 (alias `_nerf`: the same dynamic Hi model trained alone, without the Lo
 model's regulariser), `_freenerf`, `_halo+freenerf`, `_nerf_paper`.
 
-HALO here has no ray field (querying the Lo field is cheap): Lo is a
-deformation field with low frequencies in x and t; Hi is the same model with
-high frequencies, started as a copy of Lo and regularised by L_empty on
-random rays at random times.
+Lo and Hi are deformation fields, Lo with low frequencies in x and t, Hi
+with high ones; HALO on these scenes (no ray field) is in methods/halo.py.
 
 Scene folders default to $HALO_DATA/dnerf/<scene> (HALO_DATA defaults to
 ./data); override with --config.data.root=PATH.
@@ -27,25 +25,15 @@ CPU_BUDGET_S = 600.0
 
 
 def _dynamic(c):
-  """Both NeRF stages become deformation fields; the ray stage is left out."""
-  c.stages = "lo,hi"
+  """Both NeRF stages become deformation fields of (x, t)."""
   for name in ("lo", "hi"):
     c[name].model.kind = "deform"
     c[name].model.use_viewdirs = False  # Lo has none; the scenes are nearly diffuse
   # The authors lower TiNeuVox's P.E. to 4 for x and 4 for t in Lo (Hi: 10 and 8).
   c.lo.encoding.update(L=4, scale=1.0, time_L=4)
   c.hi.encoding.update(L=10, scale=1.0, time_L=8)
-  # Hi starts as an exact copy of Lo (Lo's P.E. kept in Hi's input), as on
-  # the static scenes. Trained from scratch instead, with Lo acting only
-  # through L_empty, Hi fell 1-7 dB below the copy on the val frames of hook
-  # and jumpingjacks (docs/results/dnerf_hi_init.md). The centre crop is
-  # the baseline's, so that the two differ only by Lo's help.
-  c.hi.init_from_lo = True
-  c.hi.encoding.with_lo = True
-  c.hi.precrop_steps = c.lo.precrop_steps
-  c.hi.sampler.kind = "stratified"
+  # Lo's samples for Hi and for the baseline alike (no ray field places them).
   c.hi.sampler.num_samples = c.lo.sampler.num_samples
-  # The baseline is the same Hi model with the same samples, minus Lo's help.
   c.baseline.num_samples = c.hi.sampler.num_samples
   return c
 
@@ -74,7 +62,6 @@ def get_config(arg: str = "lego"):
     defaults.cpu_sized(c, CPU_BUDGET_S)
     for name in ("lo", "hi"):
       c[name].model.update(deform_width=64, deform_depth=3)
-  c.budget_shares.update(lo=0.3, ray=0.0, hi=0.7)
   _dynamic(c)
   c.eval.chunk = 10000
   return methods.apply(c, method)

@@ -4,20 +4,17 @@ Variants (the string after the colon):
   fern_4view       train on 005 013 015 016, test on 014, images_8 (504x378),
                    the paper's step counts
   fern_4view_cpu   the same views, CPU-sized models and a wall-clock budget
-Append `_joint` for the joint scheme (the ray field trained with Hi-NeRF,
-L_consist to Lo-NeRF's depth, the sample window falling from 1 to r), or
-a method's name (halo_jax.methods): `_nerf_tuned` (alias `_nerf`: the Hi
-model alone, stratified samples), `_nerf_paper`, `_freenerf`.
+Append a method's name (halo_jax.methods): `_halo_joint` (alias `_joint`:
+the paper's joint scheme, the ray field trained with Hi-NeRF), `_nerf_tuned`
+(alias `_nerf`: the Hi model alone, stratified samples), `_nerf_paper`,
+`_freenerf`.
 Other scenes: --config.data.root=.../nerf_llff_data/<scene> with your own
 --config.data.train_views / test_views (the paper's lists for flower, leaves
 and orchids are in FOUR_VIEWS).
 
-HALO here is the two-stage scheme: Lo-NeRF -> ray field -> depth-guided
-Hi-NeRF started from Lo-NeRF. Left out because forward-facing data does not
-need them: the empty-space loss (no background: every ray hits the scene)
-and the ray field's random hemisphere rays (there is no hemisphere of
-cameras; the ray field learns the training rays, parameterised on the NDC
-near plane).
+HALO here is the two-stage scheme (methods/halo.py, NDC rays): without
+the empty-space loss and the ray field's random rays, which forward-facing
+data does not need.
 
 The scene folder defaults to $HALO_DATA/nerf_llff_data/<scene>.
 """
@@ -35,10 +32,10 @@ CPU_BUDGET_S = 600.0
 
 
 def get_config(arg: str = "fern_4view"):
-  parts, flags, method = methods.split_variant(arg, ("cpu", "joint"))
+  parts, flags, method = methods.split_variant(arg)
   cpu = "cpu" in flags
   if len(parts) != 2 or parts[1] != "4view" or parts[0] not in FOUR_VIEWS:
-    raise ValueError(f"unknown variant {arg!r}: use <scene>_4view[_cpu][_joint][_<method>] with scene "
+    raise ValueError(f"unknown variant {arg!r}: use <scene>_4view[_cpu][_<method>] with scene "
                      f"in {sorted(FOUR_VIEWS)}")
   scene = parts[0]
   c = defaults.base_config()
@@ -51,12 +48,5 @@ def get_config(arg: str = "fern_4view"):
     c.eval.chunk = 8192
   c.lo.precrop_steps = 0            # forward-facing: the scene fills the frame
   c.hi.precrop_steps = 0
-  c.hi.empty.weight = 0.0           # no background to keep empty
-  c.ray.update(random_fraction=0.0, bank_rays=0)  # no hemisphere of cameras
-  # The joint scheme ends at the two-stage scheme's window, so the two differ
-  # only in training the ray field jointly.
-  c.hi.joint.update(alpha_final=c.hi.sampler.window, alpha_steps=500 if cpu else 20000)
-  if "joint" in flags:
-    c.hi.sampler.kind = "joint"
-    c.stages = "lo,hi"
+  c.hi.joint.alpha_steps = 500 if cpu else 20000  # the joint sampler's window schedule
   return methods.apply(c, method)

@@ -8,11 +8,11 @@ Variants (the string after the colon):
 Append `_nerf_tuned` (alias `_nerf`) for the NeRF baseline: the same EPI
 radiance field with samples over the whole angle range and no ray field.
 
-HALO here is one stage: the EPI radiance field ('hi') trained jointly with a
-low-frequency ray field that places its samples (sampler.kind='joint'). No
-Lo-NeRF, no empty-space loss (the scene fills every pixel: there is no
-background to keep empty; training rays are instead composited onto a random
-colour, so each must end in something opaque) and no random rays.
+The field is the EPI radiance field ('hi'); HALO here is one stage, that
+field trained jointly with a low-frequency ray field that places its samples
+(methods/halo.py, two-plane rays). The scene fills every pixel: training
+rays are composited onto a random colour, so each must end in something
+opaque.
 
 The scene folder defaults to $HALO_DATA/stanford_lf/<scene>.
 """
@@ -33,16 +33,13 @@ def get_config(arg: str = "knights"):
   c.data.update(kind="stanford_lf", factor=1, train_views=TRAIN, test_views=TEST,
                 white_background=False,
                 root=defaults.data_root("stanford_lf", parts[0]))
-  c.stages = "hi"
   hi = c.hi
   defaults.light_field_stage(hi)
-  hi.sampler.kind = "joint"
-  hi.empty.weight = 0.0
   # Training rays composited onto a random colour (the authors' code): every
   # ray must end in something opaque, as every pixel of these scenes is; the
   # baseline gets it too (docs/light_fields.md).
   hi.random_background = True
-  hi.precrop_steps = 0
+  c.lo.precrop_steps = hi.precrop_steps = 0  # the scene fills every view: no centre crop
   hi.joint.alpha_steps = 20000   # the paper: alpha reaches 0.5 after 20k iterations
   # The authors' ray-field frequencies in our units: (s, t) as the radiance
   # field's (their std 64 -> 5.09), (u, v) near linear across the grid (their

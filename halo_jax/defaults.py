@@ -171,6 +171,9 @@ def _data():
   """The scene and its views (data.kind: a datasets.LOADERS entry)."""
   return ml_collections.ConfigDict(dict(
       kind="blender",          # 'blender' | 'procedural' | 'dnerf' | 'stanford_lf' | 'llff'
+      # the published protocol these views are ('' for none): a method may
+      # hold the paper's setting for one (methods/halo.py)
+      protocol="",
       root="",                 # scene folder, e.g. data/nerf_synthetic/lego
       factor=2,                # integer downscale (2: 400x400, 8: 100x100)
       train_views="all",       # 'all', 'every:K', a list of names, or 'r_2,r_16,...'
@@ -265,7 +268,10 @@ def base_config() -> ml_collections.ConfigDict:
   # methods.apply makes a config into one method, once; the pipeline reads
   # only the stage sections.
   c.method = ""
-  c.stages = "lo,ray,hi"      # the stages to train now (the ones they need are restored)
+  # The stages to train now (the ones they need are restored). A scene's
+  # config is a neutral NeRF (Hi alone, stratified samples, no regulariser);
+  # a method (halo_jax.methods) sets its own stages, samplers and terms.
+  c.stages = "hi"
   c.final_stage = "hi"        # the stage whose field the method outputs
   # Training-time budget in seconds for the whole pipeline (0: none). When set,
   # each needed stage gets max_seconds = budget_s * its share (normalised over
@@ -276,10 +282,9 @@ def base_config() -> ml_collections.ConfigDict:
   c.lo = _radiance_stage(L=5, scale=32, use_viewdirs=False, steps=8000, num_samples=128,
                          sampler="stratified")
   c.hi = _hi_extras(_radiance_stage(L=10, scale=1, use_viewdirs=True, steps=80000,
-                                    num_samples=128, sampler="depth_guided"))
+                                    num_samples=128, sampler="stratified"))
   c.hi.lr_final = 5e-5
   c.hi.precrop_steps = 0
-  c.hi.empty.weight = 0.1
   # auto: choose lo.encoding.L / scale with the frequency criterion before
   # training (halo_jax/tuning.py; the search runs in <workdir>/tune once).
   c.lo.encoding.auto = False
@@ -300,10 +305,9 @@ def cpu_sized(c: ml_collections.ConfigDict, budget_s: float) -> ml_collections.C
   - Lo-NeRF: 128x4 MLP, 32 samples, 4x the paper's learning rate and P.E.
     L=5, s=1 (the paper's one-side Lo setting) instead of s=32: at s=32 the
     nearly linear features need thousands of steps the budget does not have.
-  - Hi-NeRF: the same 128x4 trunk, its Hi-P.E. preceded by Lo's
-    (`encoding.with_lo`) and initialised as an exact copy of Lo-NeRF, then
-    refined with 32 samples from the ray field (r=0.3): from scratch, the
-    budget's Hi training does not get back to where Lo-NeRF already is.
+  - Hi-NeRF: the same 128x4 trunk with 32 samples (HALO places them from
+    the ray field, r=0.3; under a budget HALO starts Hi as Lo's exact copy:
+    methods/halo.py).
   - No view directions for either NeRF: with 8 views at 100x100 there is too
     little data to learn view dependence, and Lo-NeRF has none to copy.
   - The NeRF baseline (methods/nerf_tuned.py) uses the same 128x4 Hi model
@@ -330,11 +334,9 @@ def cpu_sized(c: ml_collections.ConfigDict, budget_s: float) -> ml_collections.C
   c.lo.min_steps = 100
   c.ray.min_steps = 200
   c.hi.min_steps = 100
-  c.hi.encoding.with_lo = True
   # The frequency search's short Lo-NeRFs: the length its threshold was
   # calibrated at (experiments/calibrate_frequency.py).
   c.tune.lo_steps = 300
-  c.hi.init_from_lo = True
   c.hi.sampler.num_samples = 32
   c.hi.empty.update(num_rays=256, num_samples=32, bank_rays=32768)
   # 4x the paper's rate, for Hi-NeRF and the NeRF baseline alike: a few

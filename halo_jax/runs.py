@@ -33,8 +33,8 @@ def load_config_as(spec: str, method: str, overrides=None):
   afterwards."""
   from halo_jax import methods  # pylint: disable=g-import-not-at-top
   path, _, variant = spec.partition(":")
-  parts, flags, _ = methods.split_variant(variant, ("cpu", "joint"))
-  kept = [f for f in ("cpu", "joint") if f in flags]
+  parts, flags, _ = methods.split_variant(variant)
+  kept = [f for f in ("cpu",) if f in flags]
   c = load_config(f"{path}:{'_'.join(parts + kept + [method])}")
   for field, value in (overrides or {}).items():
     set_field(c, field, value)

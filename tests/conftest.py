@@ -1,9 +1,21 @@
 """Shared fixtures: a tiny config on the procedural scene, sized for CPU tests."""
+import atexit
 import os
+import shutil
+import tempfile
 
 import pytest
 
-from halo_jax import defaults
+# One compilation cache for the session and the subprocesses it starts: the
+# tests compile the same tiny steps again and again (each pipeline.run jits
+# its own closures; each launched process starts cold).
+if "JAX_COMPILATION_CACHE_DIR" not in os.environ:
+  os.environ["JAX_COMPILATION_CACHE_DIR"] = tempfile.mkdtemp(prefix="halo_jax_test_xla_")
+  atexit.register(shutil.rmtree, os.environ["JAX_COMPILATION_CACHE_DIR"], True)
+os.environ.setdefault("JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS", "0")
+os.environ.setdefault("JAX_PERSISTENT_CACHE_MIN_ENTRY_SIZE_BYTES", "0")
+
+from halo_jax import defaults, methods
 
 # Real scenes: $HALO_DATA, else ../shared/data beside the checkout; tests that
 # need them skip when they are absent.
@@ -11,7 +23,9 @@ SHARED_DATA = os.environ.get(
     "HALO_DATA", os.path.join(os.path.dirname(__file__), "..", "..", "shared", "data"))
 
 
-def tiny_config():
+def tiny_config(method="halo"):
+  """The procedural scene at test size, as `method` ('': the neutral NeRF a
+  scene's config is before a method is applied)."""
   c = defaults.base_config()
   c.data.kind = "procedural"
   c.data.factor = 2          # 32x32 images
@@ -28,7 +42,7 @@ def tiny_config():
   c.ray.model.update(width=32, depth=2, skips=())
   c.ray.update(batch_rays=64, steps=6, checkpoint_every=3, log_every=2, bank_rays=512)
   c.hi.empty.update(num_rays=16, num_samples=8, bank_rays=512)
-  return c
+  return methods.apply(c, method) if method else c
 
 
 def pipeline_config(root, steps, parts=1, data_parallel=False):
@@ -38,6 +52,7 @@ def pipeline_config(root, steps, parts=1, data_parallel=False):
   c.data.root = root
   c.hi.encoding.with_lo = True
   c.hi.init_from_lo = True
+  c.lo.precrop_steps = 2     # keeps the centre crop's code path in these runs
   c.parallel.data_parallel = data_parallel
   for name in ("lo", "ray", "hi"):
     c[name].update(steps=steps, log_every=1, microbatches=parts)

@@ -137,7 +137,7 @@ def test_modules_and_functions_stay_small():
                    "lf_random", "unseen"}),
     (base.TRAINERS, {"radiance", "ray_field", "light_field"}),
     (METHODS, {"halo", "nerf_tuned", "nerf_paper", "freenerf", "halo+freenerf", "halo_auto",
-               "halo+unseen"}),
+               "halo+unseen", "halo_joint"}),
     (view_pairs.PAIR_KINDS, {"orbit", "orbit_time", "spiral", "uv"}),
 ])
 def test_registries_hold_every_entry(registry, expected):

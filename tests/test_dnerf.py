@@ -31,19 +31,16 @@ def write_npz(path, scene_root, n_train=24, n_val=2, n_test=4, **override):
   return path
 
 
-def dynamic_config(root):
-  c = tiny_config()
+def dynamic_config(root, method="halo"):
+  c = tiny_config(method="")
   c.data.update(kind="dnerf", root=root, factor=1, train_views="every:8",
                 test_views="test_000,test_003")
-  c.stages = "lo,hi"
   for name in ("lo", "hi"):
     c[name].model.update(kind="deform", deform_width=16, deform_depth=2)
   c.lo.encoding.update(L=2, time_L=2)
-  c.hi.encoding.update(L=6, time_L=4, with_lo=True)
-  c.hi.init_from_lo = True
-  c.hi.sampler.kind = "stratified"
+  c.hi.encoding.update(L=6, time_L=4)
   c.eval.flicker_frames = 4
-  return c
+  return methods.apply(c, method)
 
 
 def test_npz_splits_and_every_eighth_image(scene_root, tmp_path):
@@ -195,7 +192,7 @@ def test_every_method_trains_on_a_dynamic_scene(method, scene_root, tmp_path):
   """FreeNeRF's mask reaches the deformation field's x and t encodings and its
   canonical NeRF; the original NeRF's coarse MLP is a deformation field too."""
   path = write_npz(str(tmp_path / "d.npz"), scene_root)
-  c = methods.apply(dynamic_config(path), method)
+  c = dynamic_config(path, method)
   for name in ("lo", "hi"):
     c[name].update(steps=2, microbatches=1, batch_rays=64, checkpoint_every=2, eval_every=0)
   c.hi.sampler.update(num_coarse=8, num_samples=8)

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from conftest import SHARED_DATA, tiny_config
-from halo_jax import camera, datasets, pipeline, stages
+from halo_jax import camera, datasets, methods, pipeline, stages
 
 FERN = os.path.join(SHARED_DATA, "nerf_llff_data", "fern")
 
@@ -42,14 +42,13 @@ def write_llff(root, n=6, h=12, w=16, focal_full=40.0, factor=2):
   return root
 
 
-def llff_config(root):
-  c = tiny_config()
+def llff_config(root, method="halo"):
+  c = tiny_config(method="")
   c.data.update(kind="llff", root=root, factor=2, train_views="000,002,003,005",
                 test_views="004", near=0.0, far=1.0, white_background=False)
   for name in ("lo", "hi"):
     c[name].precrop_steps = 0
-  c.hi.empty.weight = 0.0
-  c.ray.update(random_fraction=0.0, bank_rays=0)
+  c = methods.apply(c, method)
   c.hi.encoding.with_lo = True
   c.hi.init_from_lo = True
   return c

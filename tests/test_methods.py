@@ -135,7 +135,7 @@ def test_methods_configure_the_stages_they_describe():
   assert pipeline.needed(both) == ("lo", "ray", "hi") and both.hi.freq_reg.end == 0.9
   for name in methods.METHODS.names():
     validate.validate(runs.load_config_as("configs/blender.py:lego_8view_cpu", name))
-  neutral = tiny_config()
+  neutral = tiny_config(method="")
   assert neutral.method == ""
   with pytest.raises(ConfigError, match="method='dietnerf' is not a known method"):
     methods.apply(neutral, "dietnerf")
@@ -246,9 +246,9 @@ def test_llff_with_empty_loss_is_refused_before_any_work(tmp_path):
 
 @pytest.mark.slow
 @pytest.mark.parametrize("name", ["nerf_paper", "freenerf", "halo+freenerf"])
-def test_method_trains_through_the_pipeline(name, config, scene_root, tmp_path):
-  config.data.root = scene_root
-  c = methods.apply(config, name)
+def test_method_trains_through_the_pipeline(name, scene_root, tmp_path):
+  c = tiny_config(name)
+  c.data.root = scene_root
   if name != "halo+freenerf":  # keep the tiny sizes: the method's own are for real runs
     c.hi.sampler.update(num_coarse=8, num_samples=8)
     c.hi.update(batch_rays=64, microbatches=1, steps=6, precrop_steps=2)
@@ -276,3 +276,131 @@ def test_halo_settings_reach_every_halo_method_and_no_baseline():
   assert procedural.get_config("spheres_8view_cpu_nerf_tuned").hi.precrop_steps == 200
   assert dnerf.get_config("hook_cpu_nerf_tuned").hi.lr_init == 2e-3
   assert procedural.get_config("spheres_8view_cpu").hi.lr_init == 2e-3  # static: unchanged
+
+
+# Every shipped scene variant, one per protocol and size.
+SCENE_SPECS = ("configs/default.py", "configs/blender.py:lego_8view", "configs/blender.py:lego_8view_cpu",
+               "configs/blender.py:lego_oneside_cpu", "configs/dnerf.py:hook_cpu",
+               "configs/dnerf.py:lego", "configs/llff.py:fern_4view_cpu",
+               "configs/stanford_lf.py:knights", "configs/stanford_lf.py:knights_cpu",
+               "configs/procedural.py:spheres_8view_cpu")
+BASELINES = ("nerf_tuned", "nerf_paper", "freenerf")
+
+
+def _scene_config(spec, monkeypatch):
+  """The config `spec`'s file builds before it applies a method."""
+  seen = []
+  real = methods.apply
+
+  def capture(c, name):
+    seen.append(c.copy_and_resolve_references())
+    return real(c, name)
+
+  monkeypatch.setattr(methods, "apply", capture)
+  runs.load_config(spec)
+  monkeypatch.setattr(methods, "apply", real)
+  assert len(seen) == 1, spec
+  return seen[0]
+
+
+@pytest.mark.parametrize("spec", SCENE_SPECS)
+def test_scene_configs_are_a_neutral_nerf(spec, monkeypatch):
+  # A scene's file holds the protocol; the stages, samplers and loss weights
+  # are the method's.
+  c = _scene_config(spec, monkeypatch)
+  assert c.method == "" and c.stages == "hi", spec
+  assert c.hi.sampler.kind == "stratified", spec
+  assert not (c.hi.init_from_lo or c.hi.encoding.with_lo), spec
+  weights = (c.hi.empty.weight, c.hi.occlusion.weight, c.hi.freq_reg.end, c.lo.unseen.weight,
+             c.hi.unseen.weight)
+  assert weights == (0.0,) * 5, spec
+
+
+def test_a_field_added_to_halo_reaches_no_baseline(monkeypatch):
+  from halo_jax.methods import halo
+  specs = ("configs/blender.py:lego_8view_cpu", "configs/dnerf.py:hook_cpu",
+           "configs/llff.py:fern_4view_cpu", "configs/stanford_lf.py:knights_cpu")
+
+  def resolved():
+    out = {}
+    for spec in specs:
+      for name in BASELINES + ("halo",):
+        try:
+          out[spec, name] = runs.load_config_as(spec, name).to_dict()
+        except ConfigError:
+          pass
+    return out
+
+  before = resolved()
+
+  def with_dummy(kind):
+    def patched(c):
+      kind(c)
+      c.hi.density_noise = 0.123
+      c.hi.model.width = 7
+    return patched
+
+  for name, kind in list(halo.KINDS.items()):
+    monkeypatch.setitem(halo.KINDS, name, with_dummy(kind))
+  after = resolved()
+  assert set(before) == set(after)
+  for spec, name in before:
+    if name == "halo":  # the dummy field did reach HALO itself
+      assert after[spec, name]["hi"]["model"]["width"] == 7, spec
+    else:
+      assert after[spec, name] == before[spec, name], (spec, name)
+
+
+def test_a_method_refuses_a_scene_kind_it_does_not_run_on():
+  with pytest.raises(ConfigError) as e:
+    runs.load_config_as("configs/stanford_lf.py:knights_cpu", "nerf_paper")
+  assert "\n" not in str(e.value)
+  assert "'nerf_paper' does not run on data.kind='stanford_lf'" in str(e.value)
+  with pytest.raises(ConfigError, match="'halo_joint' .* static scenes only"):
+    runs.load_config_as("configs/dnerf.py:hook_cpu", "halo_joint")
+
+
+def test_the_joint_scheme_is_a_method_and_keeps_its_old_name():
+  from configs import llff
+  joint = llff.get_config("fern_4view_cpu_joint")
+  assert joint.method == "halo_joint" and joint.stages == "lo,hi"
+  assert joint.hi.sampler.kind == "joint"
+  assert joint.hi.joint.alpha_final == joint.hi.sampler.window  # ends at the two-stage window
+  assert llff.get_config("fern_4view_cpu_halo_joint").to_dict() == joint.to_dict()
+  two_stage = llff.get_config("fern_4view_cpu")
+  assert (two_stage.stages, two_stage.hi.sampler.kind) == ("lo,ray,hi", "depth_guided")
+
+
+def test_the_method_table_in_the_docs_is_generated_from_the_configs():
+  import sys  # pylint: disable=g-import-not-at-top
+  sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
+  from experiments import method_table  # pylint: disable=g-import-not-at-top
+  page = open(os.path.join(os.path.dirname(__file__), "..", "docs", "baselines.md")).read()
+  assert method_table.splice(page, method_table.generate()) == page, (
+      "docs/baselines.md is stale: run python experiments/method_table.py")
+
+
+def test_the_extending_example_is_one_file_and_one_line(monkeypatch):
+  # docs/extending.md's method, run from the page itself: registered with one
+  # line, it reaches every scene file by suffix and differs from nerf_tuned
+  # only where it says.
+  import re  # pylint: disable=g-import-not-at-top
+  import types  # pylint: disable=g-import-not-at-top
+  page = open(os.path.join(os.path.dirname(__file__), "..", "docs", "extending.md")).read()
+  code = re.search(r"```python\n(# halo_jax/methods/nerf_empty.py\n.*?)```", page, re.S).group(1)
+  module = types.ModuleType("nerf_empty")
+  exec(compile(code, "docs/extending.md", "exec"), module.__dict__)  # pylint: disable=exec-used
+  monkeypatch.setitem(methods.METHODS._entries, "nerf+empty", module.METHOD)  # pylint: disable=protected-access
+  c = runs.load_config("configs/blender.py:lego_8view_cpu_nerf+empty")
+  validate.validate(c)
+  assert c.method == "nerf+empty" and pipeline.needed(c) == ("lo", "hi")
+  base = runs.load_config("configs/blender.py:lego_8view_cpu_nerf_tuned").to_dict()
+  got = c.to_dict()
+  assert (got.pop("stages"), got["hi"]["empty"].pop("weight"), got.pop("method")) == (
+      "lo,hi", 0.1, "nerf+empty")
+  for field in ("stages", "method"):
+    base.pop(field)
+  base["hi"]["empty"].pop("weight")
+  assert got == base
+  with pytest.raises(ConfigError, match="'nerf\\+empty' does not run on data.kind='llff'"):
+    runs.load_config("configs/llff.py:fern_4view_cpu_nerf+empty")

@@ -26,6 +26,7 @@ shards = sorted(tuple(s.data.tolist()) for s in x.addressable_shards)
 out = {{"shards": shards, "losses": {{}}}}
 for dp, parts in ((False, 1), (True, 1), (True, 2)):
   c = pipeline_config({root!r}, 8, parts, dp)
+  c.eval.lpips = False
   wd = {wd!r} + "/dp" + str(int(dp)) + "_" + str(parts)
   pipeline.run(c, wd)
   recs = [json.loads(l) for l in open(wd + "/metrics.jsonl")]

@@ -89,10 +89,11 @@ c = tiny_config()
 c.data.root = {root!r}
 c.hi.encoding.with_lo = True
 c.hi.init_from_lo = True
+c.eval.lpips = False
 for name in ("lo", "ray", "hi"):
-  c[name].update(steps=300, checkpoint_every=25, log_every=10)
-  c[name].batch_rays = 256
-c.lo.eval_every = c.hi.eval_every = 100
+  c[name].update(steps=150, checkpoint_every=25, log_every=10)
+  c[name].batch_rays = 128
+c.lo.eval_every = c.hi.eval_every = 50
 pipeline.run(c, {wd!r})
 print("DONE")
 """

@@ -9,6 +9,7 @@ import imageio.v3 as iio
 import numpy as np
 import pytest
 
+from conftest import tiny_config
 from halo_jax import models, pipeline, registry, stages, validate
 from halo_jax.stages import transfer
 
@@ -55,8 +56,9 @@ def test_all_stages_then_hi_alone_reuses_earlier_states(config, scene_root, tmp_
 
 
 @pytest.mark.slow
-def test_nerf_baseline_needs_no_earlier_stage(config, scene_root, tmp_path):
+def test_nerf_baseline_needs_no_earlier_stage(scene_root, tmp_path):
   from halo_jax.methods import nerf_tuned
+  config = tiny_config(method="")
   config.data.root = scene_root
   nerf_tuned.apply(config, 8)
   config.hi.sampler.kind = "hierarchical"

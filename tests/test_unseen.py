@@ -7,6 +7,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
+from conftest import tiny_config
 from halo_jax import camera, losses, methods, pipeline, visibility
 
 
@@ -65,10 +66,10 @@ def test_l_unseen_lowers_lo_nerfs_density_where_no_camera_looks(config, scene_ro
   # The same Lo-NeRF run twice, the term on (weight 1) and effectively off
   # (weight 1e-9, so that its value is still logged): the unseen density
   # ends lower with it, and the photometric fit is not broken.
-  config.data.root = scene_root
-  config.eval.lpips = False
-  config.stages = "lo"
-  c = methods.apply(config, "halo+unseen")
+  c = tiny_config("halo+unseen")
+  c.data.root = scene_root
+  c.eval.lpips = False
+  c.stages = "lo"
   c.lo.update(steps=40, log_every=10, lr_init=5e-3, lr_final=5e-3)
   ends = {}
   for weight in (1.0, 1e-9):

@@ -8,14 +8,14 @@ module here plus one `register` line below, never an edit to the pipeline.
 """
 import copy
 
-from halo_jax import registry
-from halo_jax.methods import (freenerf, halo, halo_auto, halo_freenerf, halo_unseen, nerf_paper,
-                              nerf_tuned)
+from halo_jax import datasets, geometry, registry
+from halo_jax.methods import (freenerf, halo, halo_auto, halo_freenerf, halo_joint, halo_unseen,
+                              nerf_paper, nerf_tuned)
 from halo_jax.methods.base import Method
 
 METHODS = registry.Registry[Method]("method")
-# Older spelling of nerf_tuned in config variants ('<scene>_..._nerf').
-ALIASES = {"nerf": "nerf_tuned"}
+# Older spellings in config variants ('<scene>_..._nerf', 'fern_4view_joint').
+ALIASES = {"nerf": "nerf_tuned", "joint": "halo_joint"}
 METHODS.register("halo", halo.METHOD)
 METHODS.register("nerf_tuned", nerf_tuned.METHOD)
 METHODS.register("nerf_paper", nerf_paper.METHOD)
@@ -23,8 +23,7 @@ METHODS.register("freenerf", freenerf.METHOD)
 METHODS.register("halo+freenerf", halo_freenerf.METHOD)
 METHODS.register("halo_auto", halo_auto.METHOD)
 METHODS.register("halo+unseen", halo_unseen.METHOD)
-
-
+METHODS.register("halo_joint", halo_joint.METHOD)
 
 def apply(config, name: str):
   """A copy of `config` turned into method `name` (METHODS or ALIASES).
@@ -43,9 +42,21 @@ def apply(config, name: str):
     raise ValueError(f"this config is already method {done!r}; to get {name!r} on the same "
                      f"scene, load the scene's variant with the suffix _{name} "
                      "(halo_jax.runs.load_config_as)")
-  c = METHODS.get(name, "method").apply(copy.deepcopy(config))
+  method = METHODS.get(name, "method")
+  _check_scene(method, name, config.data)
+  c = method.apply(copy.deepcopy(config))
   c.method = name
   return c
+
+
+def _check_scene(method, name, data):
+  spec = datasets.spec_of(data)
+  runs_on = method.geometries if method.dynamic or not spec.dynamic else frozenset()
+  registry.check(spec.geometry in runs_on,
+                 f"method {name!r} does not run on data.kind={data.kind!r} "
+                 f"({'dynamic, ' if spec.dynamic else ''}{spec.geometry.value} rays); it runs on "
+                 f"{geometry.names(method.geometries)} rays"
+                 f"{'' if method.dynamic else ', static scenes only'}")
 
 
 def split_variant(arg: str, flags=("cpu",)):

@@ -9,6 +9,7 @@ DietNeRF code base's NeRF with the same settings) plus its two terms:
   camera, weight 0.01 (their Blender configs' weight and near range);
   losses.occlusion. Their code notes that on Blender it matters little.
 """
+from halo_jax import geometry
 from halo_jax.methods import base, nerf_paper
 
 FREQ_REG_END = 0.9
@@ -24,4 +25,4 @@ def apply(c):
 
 
 METHOD = base.Method("FreeNeRF: the paper's NeRF with a P.E. mask that opens over 90% of "
-                     "training and an occlusion loss", apply)
+                     "training and an occlusion loss", apply, geometries=geometry.SPATIAL)

@@ -1,32 +1,103 @@
-"""HALO: Lo-NeRF -> ray field -> Hi-NeRF (or the scene kind's variant of it:
-no ray field on dynamic scenes, one joint stage on light fields; the scene
-configs build that protocol).
+"""HALO (the paper's Figure 2): a low-frequency field guides and regularises
+the high-frequency one. The scene's config gives the protocol (data, model
+sizes, budgets); this module gives the method, per scene kind:
 
-Two settings of the paper's own mechanisms are HALO's here, each chosen on
-validation views (docs/results/ablation_fog.md, ablation_dnerf_hi.md).
-Every HALO method (halo+freenerf, halo+unseen, halo_auto) applies them first.
-- On static scenes that cameras surround, Lo-NeRF trains on whole images
-  from its first step, without NeRF's centre crop. During the crop, Lo
-  filled space with white fog that the training rays seeing the white
-  background through it could not reject, and on one seed in two it never
-  cleared.
-- On dynamic scenes Hi-NeRF, started as Lo-NeRF's exact copy, trains at the
-  paper's rate (5e-4 to 5e-5), not the CPU configs' fourfold rate, which
-  suits fields trained from scratch (the baseline keeps it); at that rate
-  Hi drifted below its start on the val frames.
+  kind       stages          what a stage hands the next        Hi-NeRF's sampler  loss terms
+  sphere     lo -> ray -> hi Lo's depth trains the ray field;    depth_guided       L_rec + 0.1 L_empty
+                             the ray field places Hi's samples;                     (Lo's opacity on
+                             Lo's weights start Hi (budgeted)                       random rays)
+  ndc        lo -> ray -> hi as sphere; the ray field learns     depth_guided       L_rec
+                             the training rays only
+  dynamic    lo -> hi        Lo's weights start Hi (exact copy); stratified         L_rec + 0.1 L_empty
+                             Lo's opacity on random rays at                         (random times)
+                             random times (querying Lo is cheap)
+  two_plane  hi              a ray field trained with the        joint              L_rec + L_consist
+                             radiance field places its samples
+
+"Budgeted": under a training-time budget (the CPU protocols) Hi-NeRF starts
+as an exact copy of Lo-NeRF (Lo's P.E. kept in Hi's input), since the few
+thousand steps a budget allows do not bring a Hi-NeRF trained from scratch
+back to where Lo already is; the paper's step counts train Hi from scratch.
+
+Two further settings of the paper's own mechanisms are HALO's here, each
+chosen on validation views (docs/results/ablation_fog.md, ablation_dnerf_hi.md);
+every HALO method (halo+freenerf, halo+unseen, halo_auto) applies them first:
+- sphere: Lo-NeRF trains on whole images from its first step, without NeRF's
+  centre crop. During the crop Lo filled space with white fog that the
+  training rays, seeing the white background through it, could not reject.
+- dynamic: Hi-NeRF, started as Lo's exact copy, trains at the paper's rate
+  (5e-4 to 5e-5), not the CPU configs' fourfold one, which suits fields
+  trained from scratch (the baseline keeps it).
 """
 from halo_jax import datasets, geometry
 from halo_jax.methods import base
 
-COPY_LR = (5e-4, 5e-5)  # Hi-NeRF's rate after an exact copy of Lo, dynamic scenes
+EMPTY_WEIGHT = 0.1        # lambda of L_empty
+# The paper's per-protocol lambda (data.protocol): 0.01 on the one-side views.
+PROTOCOL_EMPTY_WEIGHT = {"lego_oneside": 0.01}
+COPY_LR = (5e-4, 5e-5)    # Hi-NeRF's rate after an exact copy of Lo, dynamic scenes
+DYNAMIC_SHARES = dict(lo=0.3, ray=0.0, hi=0.7)  # no ray stage to share the budget with
+
+
+def _copy_lo(c):
+  """Hi-NeRF starts as Lo-NeRF's exact function."""
+  c.hi.init_from_lo = True
+  c.hi.encoding.with_lo = True
+
+
+def _empty_weight(c):
+  return PROTOCOL_EMPTY_WEIGHT.get(c.data.protocol, EMPTY_WEIGHT)
+
+
+def sphere(c):
+  c.stages = "lo,ray,hi"
+  c.hi.sampler.kind = "depth_guided"
+  c.hi.empty.weight = _empty_weight(c)
+  c.lo.precrop_steps = 0
+  if c.budget_s:
+    _copy_lo(c)
+
+
+def ndc(c):
+  c.stages = "lo,ray,hi"
+  c.hi.sampler.kind = "depth_guided"
+  # Forward-facing: every ray hits the scene, so there is no background to
+  # keep empty, and no hemisphere of cameras to draw random rays from.
+  c.hi.empty.weight = 0.0
+  c.ray.update(random_fraction=0.0, bank_rays=0)
+  if c.budget_s:
+    _copy_lo(c)
+
+
+def dynamic(c):
+  c.stages = "lo,hi"
+  c.budget_shares.update(DYNAMIC_SHARES)
+  _copy_lo(c)
+  c.hi.sampler.kind = "stratified"
+  c.hi.empty.weight = _empty_weight(c)
+  # The centre crop is the baseline's, so that the two differ by Lo's help.
+  c.hi.precrop_steps = c.lo.precrop_steps
+  c.hi.lr_init, c.hi.lr_final = COPY_LR
+
+
+def two_plane(c):
+  c.stages = "hi"
+  c.hi.sampler.kind = "joint"
+  c.hi.empty.weight = 0.0   # every pixel is the scene: no background
+
+
+def scene_kind(c) -> str:
+  """'sphere', 'ndc', 'dynamic' or 'two_plane': the row of the table above."""
+  spec = datasets.spec_of(c.data)
+  return "dynamic" if spec.dynamic else spec.geometry.value
+
+
+KINDS = {"sphere": sphere, "ndc": ndc, "dynamic": dynamic, "two_plane": two_plane}
+assert set(KINDS) == {"dynamic"} | {g.value for g in geometry.Geometry}
 
 
 def apply(c):
-  spec = datasets.spec_of(c.data)
-  if spec.geometry == geometry.Geometry.SPHERE and not spec.dynamic and c.lo.kind == "radiance":
-    c.lo.precrop_steps = 0
-  if spec.dynamic and c.hi.init_from_lo:
-    c.hi.lr_init, c.hi.lr_final = COPY_LR
+  KINDS[scene_kind(c)](c)
   return c
 
 

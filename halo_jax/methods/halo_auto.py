@@ -1,6 +1,7 @@
 """HALO with Lo-NeRF's P.E. frequency chosen by the frequency rule
 (halo_jax/tuning.py) instead of set by hand: the search runs once in the
 run's workdir before training, outside the training budget."""
+from halo_jax import geometry
 from halo_jax.methods import base, halo
 
 
@@ -10,4 +11,5 @@ def _auto(c):
   return c
 
 
-METHOD = base.Method("HALO, Lo-NeRF's frequency chosen by the frequency rule", _auto)
+METHOD = base.Method("HALO, Lo-NeRF's frequency chosen by the frequency rule", _auto,
+                     geometries=geometry.SPATIAL)

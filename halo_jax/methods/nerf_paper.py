@@ -35,4 +35,4 @@ def apply(c):
 
 
 METHOD = base.Method("NeRF as published: coarse + fine MLPs, ReLU density, one image a step",
-                     apply)
+                     apply, geometries=geometry.SPATIAL)

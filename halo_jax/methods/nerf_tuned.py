@@ -1,9 +1,10 @@
 """nerf_tuned: the NeRF baseline the CPU protocols were tuned with.
 
-The Hi stage alone with HALO's Hi model, stratified samples
+The scene's Hi-NeRF trained alone: stratified samples
 (config.baseline.num_samples), softplus density with density noise 1.0, rays
-drawn from all training images, and no regulariser. It is stronger than the
-original NeRF (methods/nerf_paper.py), which collapses with few views.
+drawn from all training images, the scene's centre crop, and no regulariser.
+It is stronger than the original NeRF (methods/nerf_paper.py), which
+collapses with few views.
 """
 from halo_jax.methods import base
 
@@ -17,9 +18,6 @@ def apply(c, num_samples: int = 0):
   parts = c.hi.microbatches * c.hi.sampler.num_samples // hi_samples
   if parts > 1 and c.hi.batch_rays % parts == 0:
     c.hi.microbatches = parts
-  c.hi.empty.weight = 0.0
-  c.hi.init_from_lo = False
-  c.hi.encoding.with_lo = False
   c.hi.precrop_steps = c.lo.precrop_steps
   return c
 
