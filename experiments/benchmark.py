@@ -9,12 +9,15 @@ every method the suite's number of training steps, split the same way.
 Each finished run writes one small JSON file,
   results/<suite>/<mode>/<scene>/<method>/seed<k>.json
 (per-view PSNR / SSIM / LPIPS, the held-out curve against seconds, steps,
-provenance), which is committed: a run whose file exists is skipped, so a
+provenance; on scenes with a validation split, each stage's PSNR on all of
+its views, scored after training), which is committed: a run whose file
+exists is skipped, so a
 suite resumes across machines from the repository. A run killed part way
 resumes from its checkpoints in --scratch on the same machine. Runs go seed
 by seed (every scene and method at seed 0 first), so a partial suite covers
 every scene. experiments/report.py turns the files into docs/results/.
 """
+import json
 import os
 import re
 import sys
@@ -37,6 +40,8 @@ flags.DEFINE_string("scratch", "/tmp/halo_bench", "Workdirs (checkpoints, render
 flags.DEFINE_string("only", "", "Run only runs whose 'scene/method/seed<k>' matches this regex.")
 flags.DEFINE_integer("max_runs", 0, "Stop after this many runs (0: all).")
 flags.DEFINE_bool("dry_run", False, "Print the plan and each run's state; train nothing.")
+flags.DEFINE_bool("score_validation", False, "Train nothing: add the validation scores to "
+                  "finished runs' files that lack them, from their workdirs in --scratch.")
 flags.DEFINE_integer("first_core", -1, "With a suite pinned to k cores: the first of them "
                      "(-1: the machine's last k), e.g. to run two suites side by side.")
 
@@ -69,6 +74,7 @@ def configure(suite: suites.Suite, scene: suites.Scene, method: str, seed: int, 
   if c.data.kind == "procedural" and not c.data.root:  # generated once, shared by runs
     c.data.root = os.path.join(scratch, "scenes",
                                f"{c.data.procedural_scene}_{c.data.procedural_size}")
+  c.eval.front_s = tuple(suite.front_s)
   for field, value in suite.overrides + scene.overrides:
     runs.set_field(c, field, value)
   names = pipeline.needed(c, c.final_stage)
@@ -88,12 +94,48 @@ def configure(suite: suites.Suite, scene: suites.Scene, method: str, seed: int, 
   return c
 
 
+def workdir_of(scratch, suite_name, mode, scene, method, seed):
+  return os.path.join(scratch, suite_name, mode, scene.name, method, f"seed{seed}")
+
+
+def score_validation(workdir: str, record: dict, split: str) -> dict:
+  """Every stage of a finished run that renders (those with a held-out PSNR
+  in `record['stages']`) scored on all views of `split`, after training, so
+  it costs no training time: {'split', 'num_views', 'stages': {name: {'psnr',
+  'ssim'}}}. PSNR and SSIM as training's own evaluation scores them."""
+  from halo_jax.evaluate import __main__ as evaluation  # pylint: disable=g-import-not-at-top
+  stages, num_views = {}, 0
+  for name, stage in record["stages"].items():
+    if "psnr" not in stage:
+      continue
+    r = evaluation.run_evaluation(workdir, name, split, "all", with_lpips=False)
+    stages[name] = {k: r["float"][k] for k in ("psnr", "ssim")}
+    num_views = r["num_views"]
+  return {"split": split, "num_views": num_views, "stages": stages}
+
+
+def front_points(workdir: str, record: dict, with_lpips: bool) -> list:
+  """The run's error-against-time front on all its held-out views
+  (halo_jax/evaluate/front.py), ending with its final state's scores."""
+  from halo_jax.evaluate import front  # pylint: disable=g-import-not-at-top
+  last = list(record["stages"])[-1]
+  final = {"at_s": record["wall_s"], "wall_s": record["wall_s"], "stage": last,
+           "step": record["stages"][last]["step"], "final": True,
+           **{k: record[k] for k in ("psnr", "ssim", "lpips") if record.get(k) is not None}}
+  return front.evaluate_front(workdir, with_lpips) + [final]
+
+
 def run_one(suite_name, suite, scene, method, seed, mode, results, scratch) -> dict:
-  """Trains one run (resuming its workdir) and writes its result file."""
+  """Trains one run (resuming its workdir), scores its stages on the scene's
+  validation split if it has one, and writes its result file."""
   c = configure(suite, scene, method, seed, mode, scratch)
-  workdir = os.path.join(scratch, suite_name, mode, scene.name, method, f"seed{seed}")
+  workdir = workdir_of(scratch, suite_name, mode, scene, method, seed)
   start = time.time()
   record = runs.run_method(c, workdir)
+  if c.eval.front_s:
+    record["front"] = front_points(workdir, record, c.eval.lpips)
+  if scene.validation:
+    record["validation"] = score_validation(workdir, record, scene.validation)
   record.update(suite=suite_name, scene=scene.name, config=scene.config, method=method,
                 scene_overrides=[list(o) for o in scene.overrides],
                 seed=seed, mode=mode, budget_s=c.budget_s,
@@ -102,6 +144,24 @@ def run_one(suite_name, suite, scene, method, seed, mode, results, scratch) -> d
   path = result_path(results, suite_name, mode, scene, method, seed)
   run_file.write_json(path, record)
   return record
+
+
+def add_validation(suite_name, scene, method, seed, mode, results, scratch) -> str:
+  """Adds the validation scores to a finished run's file that lacks them,
+  from its workdir; returns what it did, in a word or two."""
+  path = result_path(results, suite_name, mode, scene, method, seed)
+  if not scene.validation or not os.path.exists(path):
+    return "nothing"
+  with open(path) as f:
+    record = json.load(f)
+  if "validation" in record:
+    return "has it"
+  workdir = workdir_of(scratch, suite_name, mode, scene, method, seed)
+  if not os.path.isdir(workdir):
+    return "no workdir"
+  record["validation"] = score_validation(workdir, record, scene.validation)
+  run_file.write_json(path, record)
+  return "scored"
 
 
 def _state(path, scene):
@@ -123,6 +183,12 @@ def main(argv):
     cores = allowed[first:first + suite.cores]
     os.sched_setaffinity(0, cores)
   todo = plan(suite, FLAGS.only)
+  if FLAGS.score_validation:
+    for scene, method, seed in todo:
+      what = add_validation(FLAGS.suite, scene, method, seed, FLAGS.mode, FLAGS.results,
+                            FLAGS.scratch)
+      print(f"{what:10} {scene.name}/{method}/seed{seed}", flush=True)
+    return
   done, failed = 0, []
   for scene, method, seed in todo:
     path = result_path(FLAGS.results, FLAGS.suite, FLAGS.mode, scene, method, seed)

@@ -122,6 +122,94 @@ def scene_table(by_method):
   return "\n".join(lines)
 
 
+def front_of(record):
+  """[(seconds, PSNR, LPIPS or None), ...] of a record's error-against-time
+  front: its snapshot times, then its final state at its training seconds."""
+  return [(p["wall_s"] if p.get("final") else p["at_s"], p["psnr"], p.get("lpips"))
+          for p in record.get("front", [])]
+
+
+def mean_front(records):
+  """(seconds [P], mean PSNR [P], PSNR [seeds, P], LPIPS [seeds, P]) over the
+  records with a front: points matched by their snapshot time, the final
+  state last (its seconds the mean over seeds)."""
+  fronts = [front_of(r) for r in records if r.get("front")]
+  if not fronts:
+    return None
+  n = min(len(f) for f in fronts)  # seeds share the snapshot times; the end is last
+  arr = np.asarray([[(t, p, np.nan if l is None else l) for t, p, l in f[:n - 1] + f[-1:]]
+                    for f in fronts], np.float64)
+  return arr[:, :, 0].mean(0), arr[:, :, 1].mean(0), arr[:, :, 1], arr[:, :, 2]
+
+
+def seconds_to_level(records, level):
+  """The first saved point (snapshot time, or the end) at which the mean over
+  seeds of the records' fronts is at or above `level` dB; None if none is.
+  An upper bound: the level may be passed between two saved points."""
+  f = mean_front(records)
+  if f is None:
+    return None
+  return next((float(t) for t, p in zip(f[0], f[1]) if p >= level - 1e-9), None)
+
+
+def front_table(by_method):
+  """Per method, from the runs with a front: held-out PSNR (all views) at each
+  snapshot time and at the end, and the seconds to reach nerf_tuned's final
+  PSNR (seconds_to_level), also as a ratio to nerf_tuned's own."""
+  with_front = {m: [r for r in rs if r.get("front")] for m, rs in by_method.items()}
+  with_front = {m: rs for m, rs in with_front.items() if rs}
+  if not with_front:
+    return ""
+  times = sorted({p["at_s"] for rs in with_front.values() for r in rs
+                  for p in r["front"] if not p.get("final")})
+  base = with_front.get(BASELINE)
+  level = float(np.mean([r["psnr"] for r in base])) if base else None
+  ref = seconds_to_level(base, level) if base else None
+  head = ["method", "seeds"] + [f"{t:g} s" for t in times] + ["end"]
+  if level is not None:
+    head += [f"s to {level:.2f} dB (nerf_tuned's end)", "× nerf_tuned's"]
+  lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+  for m in _methods(with_front):
+    rs = with_front[m]
+    cells = []
+    for t in times:
+      v = [p["psnr"] for r in rs for p in r["front"] if p.get("at_s") == t and not p.get("final")]
+      cells.append(mean_pm(np.asarray(v)) if v else "-")
+    cells.append(mean_pm(np.asarray([r["psnr"] for r in rs])))
+    if level is not None:
+      t = seconds_to_level(rs, level)
+      cells.append("not reached" if t is None else f"{t:.0f}")
+      cells.append(f"{t / ref:.2f}" if t is not None and ref else "-")
+    lines.append(f"| {m} | {len(rs)} | " + " | ".join(cells) + " |")
+  return "\n".join(lines)
+
+
+def plot_front(by_method, title, path):
+  """Held-out PSNR and LPIPS (every view) against training seconds: the mean
+  over seeds at each front point, the spread as a band."""
+  fig, axes = plt.subplots(1, 2, figsize=(10, 4))
+  for i, m in enumerate(_methods(by_method)):
+    f = mean_front(by_method[m])
+    if f is None:
+      continue
+    t, _, psnr, lpips = f
+    for ax, y in zip(axes, (psnr, lpips)):
+      if np.isnan(y).all():
+        continue
+      ax.fill_between(t, y.min(0), y.max(0), color=f"C{i}", alpha=0.2, lw=0)
+      ax.plot(t, y.mean(0), "o-", color=f"C{i}", ms=3, label=f"{m} ({len(y)})")
+  for ax, what in zip(axes, ("PSNR (dB)", "LPIPS (VGG)")):
+    ax.set_xscale("log")
+    ax.set_xlabel("training seconds")
+    ax.set_ylabel(f"held-out {what}, every view")
+    ax.grid(alpha=0.3)
+  axes[0].legend(fontsize=8)
+  fig.suptitle(title, fontsize=10)
+  fig.tight_layout()
+  fig.savefig(path, dpi=110)
+  plt.close(fig)
+
+
 def plot_scene(by_method, title, path):
   fig, ax = plt.subplots(figsize=(6, 4))
   end = max(t for rs in by_method.values() for r in rs for t, _ in r["curve"] or [(1, 0)])
@@ -248,10 +336,14 @@ def claims(scenes, method="halo"):
   return "\n".join(lines), "\n".join(per_scene)
 
 
-def stage_regressions(record):
+def stage_regressions(record, stages_key=("stages",)):
   """[(earlier stage, its PSNR, later stage, its PSNR)] where a later stage of
-  the run ended below an earlier one on the held-out views."""
-  scored = [(n, st["psnr"]) for n, st in record["stages"].items() if "psnr" in st]
+  the run ended below an earlier one on the held-out views (or, with
+  stages_key=('validation', 'stages'), on the validation views)."""
+  stages = record
+  for k in stages_key:
+    stages = stages[k]
+  scored = [(n, st["psnr"]) for n, st in stages.items() if "psnr" in st]
   return [(a, pa, b, pb) for i, (a, pa) in enumerate(scored) for b, pb in scored[i + 1:]
           if pb < pa]
 
@@ -277,6 +369,29 @@ def stage_table(scenes):
                 for a, pa, b, pb in stage_regressions(r)]
       lines.append(f"| {scene} | {m} | {len(with_lo)} | {mean_pm(lo)} | {mean_pm(final)} | "
                    f"{np.mean(final - lo):+.2f} | {steps} | "
+                   f"{'**' + '; '.join(flags_) + '**' if flags_ else 'none'} |")
+  return "\n".join(lines) if len(lines) > 2 else ""
+
+
+def validation_table(scenes):
+  """Per scene and multi-stage method, from the runs scored on the scene's
+  validation split: Lo-NeRF's PSNR there beside the method's output's, and
+  every run whose later stage ended below an earlier one on those views."""
+  lines = ["| scene | method | seeds | views | Lo PSNR | final PSNR | final - Lo | "
+           "runs whose later stage ended below an earlier |", "|---|---|---|---|---|---|---|---|"]
+  for scene in sorted(scenes):
+    for m in _methods(scenes[scene]):
+      rs = [r for r in scenes[scene][m] if "lo" in r.get("validation", {}).get("stages", {})]
+      if not rs:
+        continue
+      lo = np.asarray([r["validation"]["stages"]["lo"]["psnr"] for r in rs])
+      final = np.asarray([list(r["validation"]["stages"].values())[-1]["psnr"] for r in rs])
+      flags_ = [f"seed{r['seed']}: {b} {pb:.2f} < {a} {pa:.2f}" for r in rs
+                for a, pa, b, pb in stage_regressions(r, ("validation", "stages"))]
+      views = ", ".join(sorted({f"{r['validation']['num_views']} {r['validation']['split']}"
+                                for r in rs}))
+      lines.append(f"| {scene} | {m} | {len(rs)} | {views} | {mean_pm(lo)} | {mean_pm(final)} | "
+                   f"{np.mean(final - lo):+.2f} | "
                    f"{'**' + '; '.join(flags_) + '**' if flags_ else 'none'} |")
   return "\n".join(lines) if len(lines) > 2 else ""
 
@@ -331,6 +446,13 @@ def write_suite(suite, mode, scenes, docs):
             "output, on the same held-out views; a run whose later stage ended below an "
             "earlier one is named. Steps per stage let a slow machine be told from a stage "
             "that did not train.", "", stages, ""]
+  validation = validation_table(scenes)
+  if validation:
+    out += ["### By stage, on validation views", "",
+            "The same comparison on every view of the scene's validation split (D-NeRF's "
+            "`val` frames), each stage scored after training from its final checkpoint: "
+            "where settings are chosen, so that no choice rests on the test views.", "",
+            validation, ""]
   for scene in sorted(scenes):
     by = scenes[scene]
     cfg = next(iter(by.values()))[0]["config"]
@@ -342,6 +464,13 @@ def write_suite(suite, mode, scenes, docs):
     out += [f"## {scene}", "", f"`{cfg}`, {n_views} held-out views.{changes}", "",
             scene_table(by), "",
             f"![held-out PSNR against training seconds]({png})", ""]
+    fronts = front_table(by)
+    if fronts:
+      front_png = f"{name}_{scene}_front.png"
+      plot_front(by, f"{scene}: error against training time", os.path.join(docs, front_png))
+      out += ["Error against training time, on every held-out view: each run's state "
+              "saved at these training seconds and scored after training.", "", fronts, "",
+              f"![held-out PSNR and LPIPS against training seconds]({front_png})", ""]
   with open(os.path.join(docs, f"{name}.md"), "w") as f:
     f.write("\n".join(out))
   return name

@@ -27,6 +27,10 @@ class Scene:
   # (dotted field, value) applied after the method and the suite's overrides:
   # a variant of the scene's config (the ingredient study's single changes)
   overrides: Tuple[Tuple[str, object], ...] = ()
+  # A split of the scene that is not its test split ('' for none): after
+  # training, each stage that renders is scored on all of its views, so that
+  # a stage can be compared with the one before it without the test views.
+  validation: str = ""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -38,6 +42,10 @@ class Suite:
   curve_points: int = 6      # held-out evaluations during training, for the curves
   description: str = ""
   overrides: Tuple[Tuple[str, object], ...] = ()  # (dotted field, value) for every run
+  # Training seconds at which each run's state is saved and, after training,
+  # scored on every held-out view: the error-against-time front (the final
+  # state is its last point).
+  front_s: Tuple[float, ...] = ()
 
 
 CPU = Suite(
@@ -45,16 +53,16 @@ CPU = Suite(
         "Every method on every scene we have, on one CPU core (so that a second job "
         "can share the machine without disturbing the timings), 240 s of training "
         "per method and run, three seeds."),
-    cores=1, budget_s=240.0, steps=1500, curve_points=4,
+    cores=1, budget_s=240.0, steps=1500, curve_points=4, front_s=(15.0, 30.0, 60.0, 120.0),
     # held-out curves on 2 views: a NeRF with 64 + 128 samples renders ~1k rays/s
     # on one core, and the curves are for the plots, not the tables
     overrides=(("eval.curve_views", 2),),
     scenes=(
         Scene("lego_8view", "configs/blender.py:lego_8view_cpu", 3, "nerf_synthetic/lego"),
-        Scene("dnerf_lego", "configs/dnerf.py:lego_cpu", 3, "dnerf/lego"),
-        Scene("dnerf_hook", "configs/dnerf.py:hook_cpu", 3, "dnerf/hook"),
+        Scene("dnerf_lego", "configs/dnerf.py:lego_cpu", 3, "dnerf/lego", validation="val"),
+        Scene("dnerf_hook", "configs/dnerf.py:hook_cpu", 3, "dnerf/hook", validation="val"),
         Scene("dnerf_jumpingjacks", "configs/dnerf.py:jumpingjacks_cpu", 3,
-              "dnerf/jumpingjacks"),
+              "dnerf/jumpingjacks", validation="val"),
         Scene("lattice", "configs/procedural.py:lattice_8view_cpu", 3),
         Scene("spheres", "configs/procedural.py:spheres_8view_cpu", 3),
         Scene("lego_oneside", "configs/blender.py:lego_oneside_cpu", 3, "nerf_synthetic/lego"),
@@ -67,7 +75,7 @@ CPU = Suite(
 # A few seconds per run: the benchmark's own test and a quick look at the machinery.
 SMOKE = Suite(
     description="Two methods on the built-in scene for a few seconds (tests).",
-    budget_s=4.0, steps=6, curve_points=2,
+    budget_s=4.0, steps=6, curve_points=2, front_s=(1.0, 2.0),
     overrides=(("data.procedural_size", 32), ("data.test_views", "r_0,r_100"),
                ("eval.curve_views", 1), ("lo.model.width", 32), ("hi.model.width", 32),
                ("ray.model.width", 32), ("lo.batch_rays", 128), ("hi.batch_rays", 128),
@@ -75,7 +83,7 @@ SMOKE = Suite(
                ("lo.sampler.num_samples", 8), ("hi.sampler.num_samples", 8),
                ("baseline.num_samples", 8)),
     scenes=(Scene("spheres", "configs/procedural.py:spheres_8view_cpu", 1,
-                  methods=("nerf_tuned", "halo")),))
+                  methods=("nerf_tuned", "halo"), validation="val"),))
 
 # The frequency rule's choice against the hand-set CPU config: halo_auto here,
 # halo from the CPU suite (the same budget, cores and overrides).

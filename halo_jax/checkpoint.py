@@ -5,13 +5,15 @@ so a run killed mid-save leaves the previous checkpoint intact.
 """
 import json
 import os
+from typing import Optional
 
 import jax
 import ml_collections
 import orbax.checkpoint as ocp
 
 
-def manager(directory: str, max_to_keep: int = 2) -> ocp.CheckpointManager:
+def manager(directory: str, max_to_keep: Optional[int] = 2) -> ocp.CheckpointManager:
+  """Checkpoints of one folder, the newest `max_to_keep` kept (None: all)."""
   return ocp.CheckpointManager(
       os.path.abspath(directory),
       options=ocp.CheckpointManagerOptions(max_to_keep=max_to_keep, create=True))
@@ -27,6 +29,11 @@ def restore_latest(mngr: ocp.CheckpointManager, like):
   step = mngr.latest_step()
   if step is None:
     return None
+  return restore(mngr, step, like)
+
+
+def restore(mngr: ocp.CheckpointManager, step: int, like):
+  """Checkpoint `step` restored into the structure of `like`."""
   abstract = jax.tree_util.tree_map(ocp.utils.to_shape_dtype_struct, like)
   return mngr.restore(step, args=ocp.args.StandardRestore(abstract))
 

@@ -257,6 +257,10 @@ def _eval():
       save_images=True,
       lpips=True,          # LPIPS-VGG in the final evaluation (needs H, W >= 32)
       flicker_frames=24,   # dynamic scenes: frames of the fixed-camera video for flicker
+      # The method's training seconds at which each stage saves its parameters
+      # for the error-against-time front, scored after training on every
+      # held-out view (halo_jax/evaluate/front.py); () for none.
+      front_s=(),
   ))
 
 

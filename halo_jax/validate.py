@@ -66,6 +66,14 @@ def _check_budget(config, names):
           f"stages {list(names)}")
 
 
+def _check_front(config):
+  times = tuple(config.eval.front_s)
+  for t in times:
+    _positive_float(t, "eval.front_s")
+  check(list(times) == sorted(set(times)),
+        f"eval.front_s={times!r}: training seconds must increase")
+
+
 def _check_auto(config, dspec):
   if not config.lo.encoding.get("auto", False):
     return
@@ -105,6 +113,7 @@ def validate(config) -> None:
     _check_training(config[name], name)
     trainer.check(config, name, dspec)
   _check_budget(config, order.needed(config, final))
+  _check_front(config)
   _check_auto(config, dspec)
 
 

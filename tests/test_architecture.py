@@ -21,7 +21,7 @@ LAYERS = (
      "camera_paths", "view_pairs",
      "workdir_lock"},
     {"stages", "tuning", "validate", "methods", "stability", "pipeline", "user_errors",
-     "restore", "runs", "calibration"},
+     "restore", "runs", "calibration", "evaluate.front"},
     {"main", "render.__main__", "evaluate.__main__", "compare", "sweep"},
 )
 

@@ -75,3 +75,23 @@ def test_smoke_suite_writes_and_skips(tmp_path):
     assert field in saved["provenance"]
   assert benchmark._state(path, scene) == "done"  # pylint: disable=protected-access
   assert os.path.getsize(path) < 20000
+  # the front: the state at each of the suite's times the run reached, then the final
+  front = saved["front"]
+  assert [p["at_s"] for p in front[:-1]] == [t for t in suites.SMOKE.front_s
+                                             if t <= saved["wall_s"]]
+  assert front[-1]["final"] and front[-1]["psnr"] == pytest.approx(saved["psnr"])
+  assert all(p["wall_s"] >= p["at_s"] and 0 < p["step"] for p in front)
+  # the stage scored on every camera of the scene's validation split, after training
+  val = saved["validation"]
+  assert val["split"] == "val" and val["num_views"] == 24 and set(val["stages"]) == {"hi"}
+  assert 5.0 < val["stages"]["hi"]["psnr"] < 60.0
+  # a file without the scores gets them from the run's workdir: the same figures
+  del saved["validation"]
+  with open(path, "w") as f:
+    json.dump(saved, f)
+  args = ("smoke", scene, "nerf_tuned", 0, "time", results, scratch)
+  assert benchmark.add_validation(*args) == "scored"
+  with open(path) as f:
+    assert json.load(f)["validation"]["stages"]["hi"]["psnr"] == pytest.approx(
+        val["stages"]["hi"]["psnr"], abs=1e-4)
+  assert benchmark.add_validation(*args) == "has it"

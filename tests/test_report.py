@@ -134,3 +134,53 @@ def test_by_stage_names_every_run_whose_later_stage_ended_below_an_earlier(tmp_p
   assert "| s1 | halo | 2 | 21.00 ± 1.41 | 21.25 ± 0.35 | +0.25 | lo 10, ray 5, hi 20 |" in table
   assert "seed1: hi 21.50 < lo 22.00" in table and "seed0" not in table
   assert "nerf_tuned" not in table
+
+
+def test_by_stage_on_validation_views_reads_the_validation_scores(tmp_path):
+  root = str(tmp_path / "results")
+  # the test views say Hi gained; the validation views say seed 0's Hi lost
+  for seed, (lo, hi) in enumerate(((19.0, 18.5), (20.0, 20.5))):
+    rec = _record(25.0, [[1, 25.0]])
+    rec["seed"] = seed
+    rec["stages"] = {"lo": {"step": 10, "psnr": 24.0}, "hi": {"step": 20, "psnr": 25.0}}
+    rec["validation"] = {"split": "val", "num_views": 11,
+                         "stages": {"lo": {"psnr": lo, "ssim": 0.8},
+                                    "hi": {"psnr": hi, "ssim": 0.8}}}
+    _write(root, "halo", seed, rec)
+  _write(root, "nerf_tuned", 0, _record(20.0, [[1, 20.0]]))
+  scenes = report.load(root)[("cpu", "time")]
+  table = report.validation_table(scenes)
+  assert "| s1 | halo | 2 | 11 val | 19.50 ± 0.71 | 19.50 ± 1.41 | +0.00 |" in table
+  assert "seed0: hi 18.50 < lo 19.00" in table and "seed1" not in table
+  assert "nerf_tuned" not in table
+  assert "seed0" not in report.stage_table(scenes)  # the test views' own table
+
+
+def _front(points, final_s, final):
+  return [{"at_s": t, "wall_s": t + 0.1, "stage": "hi", "step": 1, "psnr": p, "lpips": 0.3}
+          for t, p in points] + [{"at_s": final_s, "wall_s": final_s, "stage": "hi", "step": 9,
+                                  "final": True, "psnr": final, "lpips": 0.2}]
+
+
+def test_front_table_gives_seconds_to_the_baselines_end(tmp_path):
+  root, docs = str(tmp_path / "results"), str(tmp_path / "docs")
+  os.makedirs(docs)
+  for seed, end in enumerate((20.0, 22.0)):
+    rec = _record(end, [[1, end]])
+    rec["front"] = _front([(15, 10.0), (30, 15.0 + seed), (60, 18.0 + seed)], 240.0, end)
+    rec["wall_s"] = 240.0
+    _write(root, "nerf_tuned", seed, rec)
+  for seed, mid in enumerate((20.5, 21.6)):  # mean 21.05 at 30 s: below 21; at 60 s: 22
+    rec = _record(23.0, [[1, 23.0]])
+    rec["front"] = _front([(15, 12.0), (30, mid), (60, 22.0)], 240.0, 23.0)
+    _write(root, "halo", seed, rec)
+  _write(root, "freenerf", 0, _record(15.0, [[1, 15.0]]))  # no front: no row
+  by = report.load(root)[("cpu", "time")]["s1"]
+  table = report.front_table(by)
+  assert "| method | seeds | 15 s | 30 s | 60 s | end | s to 21.00 dB (nerf_tuned's end) |" in table
+  # nerf_tuned's mean front reaches its own mean end at the end; halo's at 30 s
+  assert "| nerf_tuned | 2 | 10.00 ± 0.00 | 15.50 ± 0.71 | 18.50 ± 0.71 | 21.00 ± 1.41 | 240 | 1.00 |" in table
+  assert "| halo | 2 | 12.00 ± 0.00 | 21.05 ± 0.78 | 22.00 ± 0.00 | 23.00 ± 0.00 | 30 | 0.12 |" in table
+  assert "freenerf" not in table
+  name = report.write_suite("cpu", "time", report.load(root)[("cpu", "time")], docs)
+  assert os.path.exists(os.path.join(docs, f"{name}_s1_front.png"))

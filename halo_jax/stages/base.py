@@ -29,6 +29,12 @@ class StageContext:
   def cfg(self):
     return self.config[self.name]
 
+  @property
+  def front_s(self):
+    """The front's times (eval.front_s) this stage owes: those past the
+    earlier stages' training (snapshots.py)."""
+    return tuple(t for t in self.config.eval.front_s if t > self.wall_offset)
+
 
 @dataclasses.dataclass(frozen=True)
 class Trainer:

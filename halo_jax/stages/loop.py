@@ -16,7 +16,7 @@ import jax.numpy as jnp
 import optax
 
 from halo_jax import checkpoint, parallel, tensorboard
-from halo_jax.stages import progress
+from halo_jax.stages import progress, snapshots
 
 
 class MetricsLog:
@@ -197,8 +197,9 @@ class _Run:
   """One stage's loop state: the train state, its clock and its records."""
 
   def __init__(self, name, cfg, train_state, wall_s, mngr, log, eval_fn, wall_offset,
-               board=None):
+               board=None, snaps=None):
     self.name, self.cfg, self.state, self.wall_s = name, cfg, train_state, wall_s
+    self.snaps = snaps  # snapshots.Snapshots or None
     self.mngr, self.log, self.eval_fn, self.wall_offset = mngr, log, eval_fn, wall_offset
     self.last_eval_s, self.last_log = wall_s, int(train_state["step"])
     self.last_eval_step = None
@@ -278,12 +279,24 @@ class _Run:
     if due and self.eval_fn is not None:
       self.finish_step()
       self.evaluate(step)
+    self.snapshot(step)
+
+  def snapshot(self, step):
+    """Saves the parameters as the front's point of every time this step
+    reached (not counted as training time)."""
+    if self.snaps is None:
+      return
+    times = self.snaps.due(self.wall_offset + self.wall_s)
+    if times:
+      self.finish_step()
+      self.snaps.save(step, self.state["params"], self.wall_offset + self.wall_s, times)
 
   def close(self, step):
     """The last log line, checkpoint and evaluation of a stopped loop."""
     cfg = self.cfg
     self.finish_step()
     self.check_progress(step)
+    self.snapshot(step)  # a time the last step's wait reached
     if self.last_log != step:
       self.log.write(stage=self.name, step=step, wall_s=self.wall_offset + self.wall_s,
                      skipped=int(self.state["skipped"]))
@@ -296,7 +309,7 @@ class _Run:
 
 def train(name: str, cfg, workdir: str, params, loss_fn: Callable, data, seed: int,
           eval_fn: Optional[Callable] = None, log: Optional[MetricsLog] = None,
-          wall_offset: float = 0.0, mesh=None):
+          wall_offset: float = 0.0, mesh=None, snapshot_s=()):
   """Trains `params` on `loss_fn` for cfg.steps (or cfg.max_seconds, but never
   fewer than cfg.min_steps) and returns them.
 
@@ -317,6 +330,8 @@ def train(name: str, cfg, workdir: str, params, loss_fn: Callable, data, seed: i
       added to wall_s in the log so curves of a whole pipeline line up.
     mesh: data-parallel mesh (parallel.make_mesh) or None; state and data are
       replicated on it and loss_fn shards its batch.
+    snapshot_s: the method's training seconds (wall_offset included) at which
+      to save the parameters for its error-against-time front (snapshots.py).
 
   Returns:
     (params, step, info) with info = {'wall_s', 'skipped', 'compile_s'}:
@@ -328,7 +343,9 @@ def train(name: str, cfg, workdir: str, params, loss_fn: Callable, data, seed: i
   train_state, wall_s, mngr = _start(name, workdir, params, tx, mesh, log)
   start = int(train_state["step"])
   board = tensorboard.open_writer(workdir, name, start) if parallel.is_primary() else None
-  run = _Run(name, cfg, train_state, wall_s, mngr, log, eval_fn, wall_offset, board)
+  snaps = (snapshots.Snapshots(workdir, name, snapshot_s, start, wall_offset + wall_s)
+           if snapshot_s else None)
+  run = _Run(name, cfg, train_state, wall_s, mngr, log, eval_fn, wall_offset, board, snaps)
   data = parallel.replicate(data, mesh)
   base_key = jax.random.PRNGKey(seed)
   # Compiled before the clock starts: a time budget buys training steps, and

@@ -225,7 +225,8 @@ def train(ctx: base.StageContext):
       radius=radius, guide_model=guide_model, mesh=ctx.mesh))
   make_eval, eval_fn = _eval_closures(ctx, model, guide_model, guide_params, radius, cfg)
   params, step, info = loop.train(name, cfg, ctx.workdir, params, step_loss, data, config.seed,
-                                  eval_fn, ctx.log, ctx.wall_offset + bank_s, ctx.mesh)
+                                  eval_fn, ctx.log, ctx.wall_offset + bank_s, ctx.mesh,
+                                  snapshot_s=ctx.front_s)
   info["wall_s"] += bank_s
   eval_dir = os.path.join(stage_dir(ctx.workdir, name), "eval")
   final = make_eval(params, step)
