@@ -36,7 +36,7 @@ def default_stage(workdir: str) -> Optional[str]:
   if not os.path.exists(path):
     return None
   config = checkpoint.read_config(path)
-  names = [config.get("final_stage", "hi")] + list(reversed(order.stage_names(config)))
+  names = [config.final_stage] + list(reversed(order.stage_names(config)))
   return next((n for n in names if finished(workdir, n)
                and base.trainer_of(config, n).renderer is not None), None)
 

@@ -77,7 +77,7 @@ def _check_front(config):
 def _check_auto(config, dspec):
   if not config.lo.encoding.get("auto", False):
     return
-  final = config.get("final_stage", "hi")
+  final = config.final_stage
   check("lo" in order.needed(config, final) and config.lo.kind == "radiance",
         f"lo.encoding.auto=True: the frequency rule picks Lo-NeRF's P.E., and this config's "
         f"output stage {final!r} needs no Lo-NeRF radiance stage (data.kind="
@@ -101,7 +101,7 @@ def validate(config) -> None:
     base.trainer_of(config, name)
     _check_sampler(config[name], name)
   names = order.needed(config)
-  final = config.get("final_stage", "")
+  final = config.final_stage
   check(final in order.stage_names(config),
         f"final_stage={final!r}: must be one of {list(order.stage_names(config))}")
   every = tuple(dict.fromkeys(names + order.needed(config, final)))
