@@ -188,20 +188,20 @@ def plot_front(by_method, title, path):
   """Held-out PSNR and LPIPS (every view) against training seconds: the mean
   over seeds at each front point, the spread as a band."""
   fig, axes = plt.subplots(1, 2, figsize=(10, 4))
+  ticks = set()
   for i, m in enumerate(_methods(by_method)):
     f = mean_front(by_method[m])
     if f is None:
       continue
     t, _, psnr, lpips = f
+    ticks |= {round(float(x)) for x in t}
     for ax, y in zip(axes, (psnr, lpips)):
       if np.isnan(y).all():
         continue
       ax.fill_between(t, y.min(0), y.max(0), color=f"C{i}", alpha=0.2, lw=0)
       ax.plot(t, y.mean(0), "o-", color=f"C{i}", ms=3, label=f"{m} ({len(y)})")
-  ticks = sorted({round(float(x)) for m in by_method
-                  for f in [mean_front(by_method[m])] if f is not None for x in f[0]})
   shown = []  # one label where the seeds' ends (240, 241 s) would overprint
-  for t in ticks:
+  for t in sorted(ticks):
     if not shown or t > 1.05 * shown[-1]:
       shown.append(t)
   for ax, what in zip(axes, ("PSNR (dB)", "LPIPS (VGG)")):
@@ -344,13 +344,10 @@ def claims(scenes, method="halo"):
   return "\n".join(lines), "\n".join(per_scene)
 
 
-def stage_regressions(record, stages_key=("stages",)):
+def stage_regressions(stages):
   """[(earlier stage, its PSNR, later stage, its PSNR)] where a later stage of
-  the run ended below an earlier one on the held-out views (or, with
-  stages_key=('validation', 'stages'), on the validation views)."""
-  stages = record
-  for k in stages_key:
-    stages = stages[k]
+  a run ended below an earlier one; `stages` is a record's 'stages' (held-out
+  views) or its ['validation']['stages']."""
   scored = [(n, st["psnr"]) for n, st in stages.items() if "psnr" in st]
   return [(a, pa, b, pb) for i, (a, pa) in enumerate(scored) for b, pb in scored[i + 1:]
           if pb < pa]
@@ -374,7 +371,7 @@ def stage_table(scenes):
       steps = ", ".join(f"{n} {np.mean([r['stages'][n]['step'] for r in rs]):.0f}"
                         for n in rs[0]["stages"])
       flags_ = [f"seed{r['seed']}: {b} {pb:.2f} < {a} {pa:.2f}" for r in with_lo
-                for a, pa, b, pb in stage_regressions(r)]
+                for a, pa, b, pb in stage_regressions(r["stages"])]
       lines.append(f"| {scene} | {m} | {len(with_lo)} | {mean_pm(lo)} | {mean_pm(final)} | "
                    f"{np.mean(final - lo):+.2f} | {steps} | "
                    f"{'**' + '; '.join(flags_) + '**' if flags_ else 'none'} |")
@@ -395,7 +392,7 @@ def validation_table(scenes):
       lo = np.asarray([r["validation"]["stages"]["lo"]["psnr"] for r in rs])
       final = np.asarray([list(r["validation"]["stages"].values())[-1]["psnr"] for r in rs])
       flags_ = [f"seed{r['seed']}: {b} {pb:.2f} < {a} {pa:.2f}" for r in rs
-                for a, pa, b, pb in stage_regressions(r, ("validation", "stages"))]
+                for a, pa, b, pb in stage_regressions(r["validation"]["stages"])]
       views = ", ".join(sorted({f"{r['validation']['num_views']} {r['validation']['split']}"
                                 for r in rs}))
       lines.append(f"| {scene} | {m} | {len(rs)} | {views} | {mean_pm(lo)} | {mean_pm(final)} | "
