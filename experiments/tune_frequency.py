@@ -18,7 +18,7 @@ import os
 from absl import app, flags, logging
 from ml_collections import config_flags
 
-from halo_jax import datasets, pipeline, plots, tuning, user_errors, workdir_lock
+from halo_jax import datasets, pipeline, plots, tables, tuning, user_errors, workdir_lock
 
 FLAGS = flags.FLAGS
 config_flags.DEFINE_config_file("config", None, "HALO config (path[:variant]).",
@@ -32,16 +32,18 @@ def report(result, workdir):
   """Writes results.md and criterion_vs_psnr.png; returns the table."""
   chosen = (result["chosen"]["L"], result["chosen"]["scale"])
   best = max((g for g in result["grid"] if g["psnr"] is not None), key=lambda g: g["psnr"])
-  lines = ["| L | s | max freq 2^(L-1)/s | rho | held-out PSNR | SSIM | train s | |",
-           "|---|---|---|---|---|---|---|---|"]
+  rows = []
   for g in result["grid"]:
     mark = []
     if (g["L"], g["scale"]) == chosen:
       mark.append("chosen")
     if g is best:
       mark.append("best PSNR")
-    lines.append(f"| {g['L']} | {g['scale']:g} | {g['max_freq']:g} | {g['criterion']:.4f} | "
-                 f"{g['psnr']:.2f} | {g['ssim']:.3f} | {g['wall_s']:.0f} | {', '.join(mark)} |")
+    rows.append([str(g["L"]), f"{g['scale']:g}", f"{g['max_freq']:g}",
+                 tables.cell(g["criterion"], ".4f"), tables.cell(g["psnr"], ".2f"),
+                 tables.cell(g["ssim"], ".3f"), f"{g['wall_s']:.0f}", ", ".join(mark)])
+  lines = [tables.markdown(["L", "s", "max freq 2^(L-1)/s", "rho", "held-out PSNR", "SSIM",
+                            "train s", ""], rows)]
   chosen_psnr = next(g["psnr"] for g in result["grid"] if (g["L"], g["scale"]) == chosen)
   lines.append("")
   lines.append(f"Threshold {result['threshold']:g}: chosen L={chosen[0]}, s={chosen[1]:g} "
@@ -70,8 +72,8 @@ def main(argv):
 def run(config):
   """The experiment in FLAGS.workdir (locked by main)."""
   os.makedirs(FLAGS.workdir, exist_ok=True)
-  dataset = datasets.load(FLAGS.config.data, FLAGS.workdir)
-  result = tuning.tune(FLAGS.config, FLAGS.workdir, dataset, pipeline.run, FLAGS.full_grid)
+  dataset = datasets.load(config.data, FLAGS.workdir)
+  result = tuning.tune(config, FLAGS.workdir, dataset, pipeline.run, FLAGS.full_grid)
   print(report(result, FLAGS.workdir))
 
 

@@ -23,7 +23,8 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # pylint: disable=g-import-not-at-top
 from ml_collections import config_flags
 
-from halo_jax import config_files, datasets, methods, pipeline, runs, user_errors, workdir_lock
+from halo_jax import (config_files, datasets, methods, pipeline, runs, tables, user_errors,
+                      workdir_lock)
 
 FLAGS = flags.FLAGS
 
@@ -61,25 +62,22 @@ def method_configs(load, names, all_views):
 def write_report(results, workdir, n_test):
   dynamic = any("flicker" in r for r in results.values())
   level = runs.common_level(list(results.values()))
-  reach = f" s to {level:.1f} dB |" if level is not None else ""
-  lines = ["| method | held-out PSNR | SSIM | LPIPS (VGG) |" + (" flicker |" if dynamic else "")
-           + " training s |" + reach,
-           "|---|---|---|---|" + ("---|" if dynamic else "") + "---|" + ("---|" if reach else "")]
-  def cell(value, fmt):  # '-' where a run has no such metric
-    return "-" if value is None or value != value else format(value, fmt)
-
+  reach = f"s to {level:.1f} dB" if level is not None else ""
+  header = (["method", "held-out PSNR", "SSIM", "LPIPS (VGG)"] + (["flicker"] if dynamic else [])
+            + ["training s"] + ([reach] if reach else []))
+  rows = []
   for name, r in results.items():
-    flicker = f" {cell(r.get('flicker'), '.2f')} |" if dynamic else ""
-    when = f" {cell(runs.seconds_to_reach([r], level), '.0f')} |" if reach else ""
-    lines.append(f"| {name} | {r['psnr']:.2f} | {r['ssim']:.3f} | {cell(r.get('lpips'), '.3f')} "
-                 f"|{flicker} {r['wall_s']:.0f} |{when}")
+    rows.append([name, f"{r['psnr']:.2f}", f"{r['ssim']:.3f}", tables.cell(r.get("lpips"), ".3f")]
+                + ([tables.cell(r.get("flicker"), ".2f")] if dynamic else [])
+                + [f"{r['wall_s']:.0f}"]
+                + ([tables.cell(runs.seconds_to_reach([r], level), ".0f")] if reach else []))
   note = (" Flicker: mean |I(t+1) - 2 I(t) + I(t-1)| in 8-bit levels over a video at the "
           "first held-out camera (halo_jax.metrics.temporal_flicker)." if dynamic else "")
   if reach:
     note += (f" 's to {level:.1f} dB': training seconds until the held-out curve (the first "
              f"eval.curve_views views) first reached {level:.1f} dB, 0.5 dB under the lowest "
              "curve peak of all methods.")
-  table = "\n".join(lines) + f"\n\n({n_test} held-out views.{note})\n"
+  table = tables.markdown(header, rows) + f"\n\n({n_test} held-out views.{note})\n"
   with open(os.path.join(workdir, "results.md"), "w") as f:
     f.write(table)
   plt.figure(figsize=(6, 4))

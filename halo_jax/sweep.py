@@ -19,8 +19,8 @@ import os
 from absl import app, flags, logging
 from ml_collections import config_flags
 
-from halo_jax import (config_files, datasets, pipeline, plots, stages, tuning, user_errors,
-                      workdir_lock)
+from halo_jax import (config_files, datasets, pipeline, plots, stages, tables, tuning,
+                      user_errors, workdir_lock)
 from halo_jax.stages import radiance
 
 FLAGS = flags.FLAGS
@@ -108,13 +108,11 @@ def run_point(config, point, workdir, dataset, with_criterion):
 
 
 def report(rows, workdir):
-  fmt = lambda v, f: "-" if v is None else format(v, f)
-  lines = ["| point | criterion | held-out PSNR | SSIM | LPIPS | train s |",
-           "|---|---|---|---|---|---|"]
-  for r in rows:
-    lines.append(f"| {r['label']} | {fmt(r['criterion'], '.3f')} | {fmt(r['psnr'], '.2f')} | "
-                 f"{fmt(r['ssim'], '.3f')} | {fmt(r['lpips'], '.3f')} | {r['wall_s']:.0f} |")
-  table = "\n".join(lines) + "\n"
+  table = tables.markdown(
+      ["point", "criterion", "held-out PSNR", "SSIM", "LPIPS", "train s"],
+      [[r["label"], tables.cell(r["criterion"], ".3f"), tables.cell(r["psnr"], ".2f"),
+        tables.cell(r["ssim"], ".3f"), tables.cell(r["lpips"], ".3f"), f"{r['wall_s']:.0f}"]
+       for r in rows]) + "\n"
   with open(os.path.join(workdir, "results.md"), "w") as f:
     f.write(table)
   plots.criterion_and_psnr([r["label"] for r in rows], [r["criterion"] for r in rows],
@@ -133,7 +131,6 @@ def main(argv):
 def run(config):
   """The experiment in FLAGS.workdir (locked by main)."""
   os.makedirs(FLAGS.workdir, exist_ok=True)
-  config = FLAGS.config
   points = parse_sweeps(config, FLAGS.sweep)
   dataset = datasets.load(config.data, FLAGS.workdir)
   rows = []
