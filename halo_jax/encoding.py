@@ -11,6 +11,8 @@ then use sin(a1 + b) = sin a1 cos b + cos a1 sin b. The error is then about
 stability.py` measures both against float64. For power-of-two s both forms
 are exact up to sin's own rounding.
 """
+import enum
+
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -91,6 +93,15 @@ def naive_positional_encoding(x, num_freqs: int, scale: float = 1.0):
 def encoded_size(dim: int, num_freqs: int, include_input: bool = True) -> int:
   """Width of positional_encoding's output for a D-dimensional input."""
   return dim * (2 * num_freqs + int(include_input))
+
+
+class FourierStream(enum.IntEnum):
+  """Offsets added to a field's Fourier `seed`, one per encoded input, so
+  that no two inputs draw the same frequency matrix."""
+  EPI_ST = 0      # EPINeRF's (s', t')
+  EPI_THETA = 1   # EPINeRF's theta
+  EPI_UV = 2      # EPINeRF's view (u, v)
+  RAY_FIELD = 3   # EPIRayField's (u, v, s, t)
 
 
 def fourier_matrix(seed: int, dim: int, num_features: int, std: float) -> np.ndarray:

@@ -44,7 +44,7 @@ class RayField(nn.Module):
 def ray_field_matrix(seed: int, num_features: int, std: float, uv_std: float = 0.0):
   """EPIRayField's frequency matrix B [4 (u, v, s, t), F]: N(0, std^2), the
   (u, v) rows N(0, uv_std^2) where uv_std is not 0 (the same draw, rescaled)."""
-  matrix = encoding.fourier_matrix(seed + 3, 4, num_features, std)
+  matrix = encoding.fourier_matrix(seed + encoding.FourierStream.RAY_FIELD, 4, num_features, std)
   if uv_std:
     matrix = matrix * np.array([[uv_std / std]] * 2 + [[1.0]] * 2, np.float32)
   return matrix

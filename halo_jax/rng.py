@@ -6,7 +6,24 @@ comes from key r alone, so the parts see exactly the numbers the whole batch
 would. `key` below is one PRNG key (uint32 [2]) or per-ray keys (uint32
 [R, 2]); with per-ray keys `shape[0]` must be R.
 """
+import enum
+
 import jax
+
+
+class Stream(enum.IntEnum):
+  """Offsets added to `config.seed` for the run's independent host-side
+  draws, one per purpose, so that no two purposes share a stream by accident.
+  (Model initialisation and the per-step keys use `config.seed` itself.)"""
+  EMPTY_BANK = 1       # L_empty's bank of random rays (stages/terms.py)
+  RAY_RANDOM_BANK = 2  # the ray field's random hemisphere rays (stages/ray.py)
+  RAY_TARGET_RAYS = 3  # which training rays Lo-NeRF labels for the ray field
+  UNSEEN_BANK = 5      # L_unseen's bank of points (stages/unseen.py)
+
+
+def stream_seed(seed: int, stream: Stream) -> int:
+  """The seed of `stream` in a run seeded `seed`."""
+  return seed + int(stream)
 
 
 def is_per_ray(key) -> bool:

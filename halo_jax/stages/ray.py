@@ -7,7 +7,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from halo_jax import geometry, losses, parallel, ray_fields, raycast, registry
+from halo_jax import geometry, losses, parallel, ray_fields, raycast, registry, rng
 from halo_jax.stages import base, lo_targets, loop
 from halo_jax.stages.state import StageState
 
@@ -61,8 +61,8 @@ def _targets(ctx, lo_samples, n_random, radius):
   o, d = ds.train.rays()
   o, d = o.reshape(-1, 3), d.reshape(-1, 3)
   if 0 < cfg.target_rays < o.shape[0]:
-    keep = np.sort(np.random.default_rng(config.seed + 3).choice(
-        o.shape[0], cfg.target_rays, replace=False))
+    pick = np.random.default_rng(rng.stream_seed(config.seed, rng.Stream.RAY_TARGET_RAYS))
+    keep = np.sort(pick.choice(o.shape[0], cfg.target_rays, replace=False))
     o, d = o[keep], d[keep]
   common = dict(near=ds.near, far=ds.far, white_background=ds.white_background,
                 target=cfg.depth_target, chunk=config.eval.chunk,
@@ -72,8 +72,9 @@ def _targets(ctx, lo_samples, n_random, radius):
   if n_random:
     data["random"] = lo_targets.random_ray_bank(
         lo, cfg.bank_rays, radius, ds.train.focal / ds.train.width, ds.near, ds.far,
-        ds.white_background, lo_samples, config.seed + 2, cfg.depth_target, config.eval.chunk,
-        config.eval.block_rays)
+        ds.white_background, lo_samples,
+        rng.stream_seed(config.seed, rng.Stream.RAY_RANDOM_BANK), cfg.depth_target,
+        config.eval.chunk, config.eval.block_rays)
   return data
 
 

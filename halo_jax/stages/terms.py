@@ -15,7 +15,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from halo_jax import geometry, losses, metrics, parallel, raycast, registry, samplers
+from halo_jax import geometry, losses, metrics, parallel, raycast, registry, rng, samplers
 from halo_jax.stages import lo_targets, loop
 
 
@@ -108,7 +108,8 @@ def _empty_prepare(s: Setup):
   e, ds = s.cfg.empty, s.dataset
   bank = lo_targets.random_ray_bank(
       s.states["lo"], e.bank_rays, ds.radius, ds.train.focal / ds.train.width, ds.near, ds.far,
-      ds.white_background, e.num_samples, s.config.seed + 1, chunk=s.config.eval.chunk,
+      ds.white_background, e.num_samples, rng.stream_seed(s.config.seed, rng.Stream.EMPTY_BANK),
+      chunk=s.config.eval.chunk,
       block_rays=s.config.eval.block_rays)
   idx = np.flatnonzero(bank["acc"] < e.tau).astype(np.int32)
   if idx.size == 0:  # nothing is empty: the mask in L_empty makes it 0

@@ -17,7 +17,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from halo_jax import camera, geometry, losses, parallel, visibility
+from halo_jax import camera, geometry, losses, parallel, rng, visibility
 from halo_jax.stages import loop, terms
 
 
@@ -26,7 +26,8 @@ def _prepare(s: terms.Setup):
   fewer than min_views training cameras see (numpy); P >= 1, and 'valid' [P]
   is 0 for the one placeholder of a scene where every point is seen."""
   u, ds = s.cfg.unseen, s.dataset
-  k_rays, k_t, k_time = jax.random.split(jax.random.PRNGKey(s.config.seed + 5), 3)
+  seed = rng.stream_seed(s.config.seed, rng.Stream.UNSEEN_BANK)
+  k_rays, k_t, k_time = jax.random.split(jax.random.PRNGKey(seed), 3)
   o, d = camera.random_hemisphere_rays(k_rays, u.bank_points, ds.radius,
                                        ds.train.focal / ds.train.width)
   t = jax.random.uniform(k_t, (u.bank_points, 1), minval=ds.near, maxval=ds.far)
