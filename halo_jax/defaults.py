@@ -19,6 +19,9 @@ def _nerf_model(use_viewdirs):
   m = _model(use_viewdirs=use_viewdirs)
   m.kind = "nerf"                    # models.MODELS: 'nerf', 'deform' (times), 'epi' (light fields)
   m.density_activation = "softplus"  # or 'relu' (the original NeRF)
+  # the dtype of the trunk's matmuls, 'float32' or 'bfloat16' (parameters,
+  # encodings and the output heads stay float32; models.COMPUTE_DTYPES)
+  m.compute_dtype = "float32"
   m.deform_width = 128               # deform only: the deformation MLP
   m.deform_depth = 4
   return m
@@ -305,7 +308,7 @@ def cpu_sized(c: ml_collections.ConfigDict, budget_s: float) -> ml_collections.C
   """Shrinks a config to fit `budget_s` seconds of training on 2 CPU cores.
 
   The HALO stages share the budget as `budget_shares` says. The choices were
-  measured on lego 8-view at 100x100 (docs/results_lego_cpu.md):
+  measured on lego 8-view at 100x100 (docs/notes/2026-11-22-lego-cpu.md):
   - Lo-NeRF: 128x4 MLP, 32 samples, 4x the paper's learning rate and P.E.
     L=5, s=1 (the paper's one-side Lo setting) instead of s=32: at s=32 the
     nearly linear features need thousands of steps the budget does not have.
@@ -344,7 +347,7 @@ def cpu_sized(c: ml_collections.ConfigDict, budget_s: float) -> ml_collections.C
   c.hi.sampler.num_samples = 32
   c.hi.empty.update(num_rays=256, num_samples=32, bank_rays=32768)
   # 4x the paper's rate, for Hi-NeRF and the NeRF baseline alike: a few
-  # thousand steps are all the budget allows, and both gain from it (docs/results_lego_cpu.md).
+  # thousand steps are all the budget allows, and both gain from it (docs/notes/2026-11-22-lego-cpu.md).
   c.hi.update(batch_rays=1024, steps=6000, lr_init=2e-3, lr_final=2e-4, checkpoint_every=500,
               log_every=50)
   for name in ("lo", "hi"):

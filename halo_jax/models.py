@@ -28,7 +28,7 @@ def _density(h, noise_key, noise, bias, shape, activation="softplus"):
   (N = prod(shape)); returns [N]. Noise only when a key (one, or per ray:
   halo_jax.rng, drawn over `shape` so each ray draws its own) is given.
   act: 'softplus' (smooth, never stuck at 0) or 'relu' (the original NeRF)."""
-  raw = nn.Dense(1, name="density")(h)[..., 0]
+  raw = nn.Dense(1, dtype=jnp.float32, name="density")(h)[..., 0]
   if noise_key is not None and noise > 0:
     raw = raw + noise * rng.normal(noise_key, shape).reshape(raw.shape)
   return DENSITY_ACTIVATIONS[activation](raw + bias)
@@ -60,11 +60,16 @@ def masked_positional_encoding(x, freqs, scale, band_fraction):
   return pe * jnp.concatenate([jnp.ones(x.shape[-1]), w, w])
 
 
+COMPUTE_DTYPES = {"float32": jnp.float32, "bfloat16": jnp.bfloat16}
+
+
 class MLP(nn.Module):
-  """ReLU MLP with the input concatenated back in after the `skips` layers."""
+  """ReLU MLP with the input concatenated back in after the `skips` layers.
+  dtype: the layers' compute dtype (their parameters stay float32)."""
   width: int = 256
   depth: int = 8
   skips: Sequence[int] = (4,)
+  dtype: str = "float32"
 
   @nn.compact
   def __call__(self, x):
@@ -72,7 +77,7 @@ class MLP(nn.Module):
     for i in range(self.depth):
       if i in self.skips and i > 0:
         x = jnp.concatenate([x, inputs], -1)
-      x = nn.relu(nn.Dense(self.width, name=f"dense_{i}")(x))
+      x = nn.relu(nn.Dense(self.width, dtype=COMPUTE_DTYPES[self.dtype], name=f"dense_{i}")(x))
     return x
 
 
@@ -90,6 +95,9 @@ class NeRFMLP(nn.Module):
     dir_freqs: L of the direction encoding.
     density_bias: act(raw + bias); -1 starts a softplus field nearly empty.
     density_activation: 'softplus' or 'relu' (DENSITY_ACTIVATIONS).
+    compute_dtype: 'float32' or 'bfloat16' (COMPUTE_DTYPES): the dtype of
+      the trunk's and the view layers' matmuls; parameters, the encodings
+      and the density and colour heads stay float32.
   """
   pos_freqs: int = 10
   pos_scale: float = 1.0
@@ -102,6 +110,7 @@ class NeRFMLP(nn.Module):
   dir_freqs: int = 4
   density_bias: float = -1.0
   density_activation: str = "softplus"
+  compute_dtype: str = "float32"
 
   @nn.compact
   def __call__(self, points, viewdirs=None, density_noise_key=None, density_noise=0.0,
@@ -118,15 +127,17 @@ class NeRFMLP(nn.Module):
     if self.base_freqs > 0:
       x = jnp.concatenate(
           [encoding.positional_encoding(points, self.base_freqs, self.base_scale), x], -1)
-    h = MLP(self.width, self.depth, tuple(self.skips), name="trunk")(x)
+    dtype = COMPUTE_DTYPES[self.compute_dtype]
+    h = MLP(self.width, self.depth, tuple(self.skips), self.compute_dtype, name="trunk")(x)
     sigma = _density(h, density_noise_key, density_noise, self.density_bias, shape,
                      self.density_activation)
     if self.use_viewdirs:
-      feat = nn.Dense(self.width, name="bottleneck")(h)
+      feat = nn.Dense(self.width, dtype=dtype, name="bottleneck")(h)
       viewdirs = _rows(jnp.broadcast_to(viewdirs, (*shape, viewdirs.shape[-1])))
       d = masked_positional_encoding(viewdirs, self.dir_freqs, 1.0, band_fraction)
-      h = nn.relu(nn.Dense(self.width // 2, name="view")(jnp.concatenate([feat, d], -1)))
-    rgb = nn.sigmoid(nn.Dense(3, name="rgb")(h))
+      h = nn.relu(nn.Dense(self.width // 2, dtype=dtype, name="view")(
+          jnp.concatenate([feat, d.astype(feat.dtype)], -1)))
+    rgb = nn.sigmoid(nn.Dense(3, dtype=jnp.float32, name="rgb")(h))
     return sigma.reshape(shape), rgb.reshape(*shape, 3)
 
 
@@ -162,6 +173,7 @@ class DeformNeRF(nn.Module):
   deform_width: int = 128
   deform_depth: int = 4
   density_activation: str = "softplus"
+  compute_dtype: str = "float32"
 
   @nn.compact
   def __call__(self, points, viewdirs=None, density_noise_key=None, density_noise=0.0,
@@ -182,12 +194,17 @@ class DeformNeRF(nn.Module):
       feats = [encoding.positional_encoding(x, self.base_freqs, self.base_scale),
                encoding.positional_encoding(times, self.base_time_freqs,
                                             self.base_time_scale)] + feats
-    h = MLP(self.deform_width, self.deform_depth, (), name="deform")(jnp.concatenate(feats, -1))
-    offset = nn.Dense(3, kernel_init=nn.initializers.zeros, name="offset")(h).reshape(*shape, 3)
-    canonical = NeRFMLP(self.pos_freqs, self.pos_scale, self.base_freqs, self.base_scale,
-                        self.width, self.depth, tuple(self.skips), self.use_viewdirs,
-                        self.dir_freqs, self.density_bias, self.density_activation,
-                        name="canonical")
+    h = MLP(self.deform_width, self.deform_depth, (), self.compute_dtype,
+            name="deform")(jnp.concatenate(feats, -1))
+    offset = nn.Dense(3, kernel_init=nn.initializers.zeros, dtype=jnp.float32,
+                      name="offset")(h).reshape(*shape, 3)
+    canonical = NeRFMLP(pos_freqs=self.pos_freqs, pos_scale=self.pos_scale,
+                        base_freqs=self.base_freqs, base_scale=self.base_scale,
+                        width=self.width, depth=self.depth, skips=tuple(self.skips),
+                        use_viewdirs=self.use_viewdirs, dir_freqs=self.dir_freqs,
+                        density_bias=self.density_bias,
+                        density_activation=self.density_activation,
+                        compute_dtype=self.compute_dtype, name="canonical")
     return canonical(points + offset, viewdirs, density_noise_key, density_noise, band_fraction)
 
 
@@ -211,6 +228,7 @@ class EPINeRF(nn.Module):
   depth: int = 8
   skips: Sequence[int] = (4,)
   density_bias: float = -1.0
+  compute_dtype: str = "float32"   # as in NeRFMLP
 
   @nn.compact
   def __call__(self, points, viewdirs, density_noise_key=None, density_noise=0.0):
@@ -222,17 +240,22 @@ class EPINeRF(nn.Module):
     points, viewdirs = _rows(points), _rows(jnp.broadcast_to(viewdirs, (*shape, 2)))
     x = jnp.concatenate([
         encoding.gaussian_fourier_features(
-            points[..., :2], encoding.fourier_matrix(self.seed, 2, self.st_features, self.st_std)),
+            points[..., :2], encoding.fourier_matrix(
+                self.seed + encoding.FourierStream.EPI_ST, 2, self.st_features, self.st_std)),
         encoding.gaussian_fourier_features(
-            points[..., 2:], encoding.fourier_matrix(self.seed + 1, 1, self.theta_features,
-                                                     self.theta_std))], -1)
-    h = MLP(self.width, self.depth, tuple(self.skips), name="trunk")(x)
+            points[..., 2:], encoding.fourier_matrix(
+                self.seed + encoding.FourierStream.EPI_THETA, 1, self.theta_features,
+                self.theta_std))], -1)
+    dtype = COMPUTE_DTYPES[self.compute_dtype]
+    h = MLP(self.width, self.depth, tuple(self.skips), self.compute_dtype, name="trunk")(x)
     sigma = _density(h, density_noise_key, density_noise, self.density_bias, shape)
     v = encoding.gaussian_fourier_features(
-        viewdirs, encoding.fourier_matrix(self.seed + 2, 2, self.uv_features, self.uv_std))
-    feat = nn.Dense(self.width, name="bottleneck")(h)
-    h = nn.relu(nn.Dense(self.width // 2, name="view")(jnp.concatenate([feat, v], -1)))
-    rgb = nn.sigmoid(nn.Dense(3, name="rgb")(h))
+        viewdirs, encoding.fourier_matrix(self.seed + encoding.FourierStream.EPI_UV, 2,
+                                          self.uv_features, self.uv_std))
+    feat = nn.Dense(self.width, dtype=dtype, name="bottleneck")(h)
+    h = nn.relu(nn.Dense(self.width // 2, dtype=dtype, name="view")(
+        jnp.concatenate([feat, v.astype(feat.dtype)], -1)))
+    rgb = nn.sigmoid(nn.Dense(3, dtype=jnp.float32, name="rgb")(h))
     return sigma.reshape(shape), rgb.reshape(*shape, 3)
 
 
@@ -244,7 +267,8 @@ def _nerf_kwargs(config, name):
                     width=m.width, depth=m.depth, skips=tuple(m.skips),
                     use_viewdirs=m.use_viewdirs, dir_freqs=m.dir_freqs,
                     density_bias=m.density_bias,
-                    density_activation=m.get("density_activation", "softplus"))
+                    density_activation=m.get("density_activation", "softplus"),
+                    compute_dtype=m.get("compute_dtype", "float32"))
 
 
 def _static_nerf(config, name):
@@ -267,7 +291,8 @@ def _epi_nerf(config, name):
   return EPINeRF(st_std=f.st_std, st_features=f.st_features, theta_std=f.theta_std,
                  theta_features=f.theta_features, uv_std=f.uv_std,
                  uv_features=f.uv_features, seed=f.seed, width=m.width, depth=m.depth,
-                 skips=tuple(m.skips), density_bias=m.density_bias)
+                 skips=tuple(m.skips), density_bias=m.density_bias,
+                 compute_dtype=m.get("compute_dtype", "float32"))
 
 
 @dataclasses.dataclass(frozen=True)

@@ -6,7 +6,7 @@ declaration (its ray geometry, whether frames carry times), not the data.
 """
 import math
 
-from halo_jax import datasets, geometry, samplers, view_pairs
+from halo_jax import datasets, geometry, models, samplers, view_pairs
 from halo_jax.registry import ConfigError, check
 from halo_jax.stages import base, order
 
@@ -55,6 +55,14 @@ def _check_sampler(cfg, name):
     check(0 < s.window <= 1, f"{name}.sampler.window={s.window!r}: must be in (0, 1]")
 
 
+def _check_model(cfg, name):
+  if "model" not in cfg or "compute_dtype" not in cfg.model:
+    return
+  dtypes = sorted(models.COMPUTE_DTYPES)
+  check(cfg.model.compute_dtype in models.COMPUTE_DTYPES,
+        f"{name}.model.compute_dtype={cfg.model.compute_dtype!r}: must be one of {dtypes}")
+
+
 def _check_budget(config, names):
   check(config.budget_s >= 0, f"budget_s={config.budget_s!r}: must be >= 0")
   if config.budget_s > 0:
@@ -100,6 +108,7 @@ def validate(config) -> None:
   for name in order.stage_names(config):  # names the field before the graph reads it
     base.trainer_of(config, name)
     _check_sampler(config[name], name)
+    _check_model(config[name], name)
   names = order.needed(config)
   final = config.final_stage
   check(final in order.stage_names(config),
