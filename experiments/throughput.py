@@ -1,16 +1,19 @@
 """Training-step throughput of each stage against the machine's measured matmul peak.
 
-  python experiments/throughput.py --config=configs/blender.py:lego_8view_cpu --workdir=DIR
+  python experiments/throughput.py --config=configs/blender.py:lego_8view_cpu
+  python experiments/throughput_report.py   # docs/results/throughput.md from the files
 
 Measures, in one process: the matmul peak (a large jitted fp32 matmul), then
 for the Lo, ray and Hi training steps and the NeRF baseline step: seconds per
 step, rays/s, samples/s, FLOPs per step from XLA's cost analysis, and the
 share of the peak. Uses random-initialised fields on the procedural scene's
-geometry (throughput does not depend on the weights). Writes DIR/results.json.
+geometry (throughput does not depend on the weights). Writes one result file,
+results/throughput/<config>/<machine>/<UTC time>_<commit>.json, committed so
+that the next measurement is compared with it (experiments/throughput_report.py).
 """
 import functools
-import json
 import os
+import sys
 import time
 
 from absl import app, flags, logging
@@ -19,18 +22,22 @@ import jax.numpy as jnp
 import numpy as np
 from ml_collections import config_flags
 
-from halo_jax import camera, geometry, models, ray_fields
-from halo_jax import raycast, runs
-from halo_jax.stages import loop, radiance, ray
+REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+if __package__ in (None, ""):  # run as a script: the repository root holds `experiments`
+  sys.path.insert(0, REPO)
+from experiments import run_file, throughput_report  # pylint: disable=g-import-not-at-top
+from halo_jax import camera, geometry, models, provenance, ray_fields  # pylint: disable=g-import-not-at-top
+from halo_jax import raycast, runs  # pylint: disable=g-import-not-at-top
+from halo_jax.stages import loop, radiance, ray  # pylint: disable=g-import-not-at-top
 
 FLAGS = flags.FLAGS
 config_flags.DEFINE_config_file("config", "configs/default.py", "Config (path[:variant]).")
-flags.DEFINE_string("workdir", None, "Output folder.")
+flags.DEFINE_string("results", os.path.join(REPO, "results", "throughput"),
+                    "Result files' root: <results>/<config>/<machine>/<time>_<commit>.json.")
 flags.DEFINE_integer("repeats", 10, "Timed steps per round.")
 flags.DEFINE_integer("rounds", 3, "Rounds per measurement; the fastest is reported.")
 flags.DEFINE_integer("peak_n", 2048, "Size n of the n x n x n fp32 matmul that measures the "
                      "peak (2048 fills 2 CPU cores; a GPU needs 8192).")
-flags.mark_flags_as_required(["workdir"])
 
 
 def _best_of_rounds(one_round):
@@ -144,8 +151,10 @@ def main(argv):
   results["steps"]["ray"] = step_throughput(lf, c.ray, rf_params, jax.device_put(rdata),
                                             c.ray.batch_rays, 1)
   nerf_step("hi", c, "hi", guide=(rf, rf_params["ray"]))
-  nerf_step("nerf", runs.load_config_as(config_flags.get_config_filename(FLAGS["config"]),
-                                        "nerf_tuned"), "hi")
+  # the baseline with the command line's overrides too (a dtype, a size)
+  nerf_step("nerf", runs.load_config_as(
+      config_flags.get_config_filename(FLAGS["config"]), "nerf_tuned",
+      _flat(config_flags.get_override_values(FLAGS["config"]))), "hi")
   # Held-out rendering with the Hi field (forward only).
   model = models.nerf_from_config(c, "hi")
   ev = {b: raycast.make_eval_fn(model, c.hi.sampler, near=near, far=far, white_background=True,
@@ -164,14 +173,30 @@ def main(argv):
   peak = results["peak_gflops"] = max(peak, matmul_peak(FLAGS.peak_n))
   for r in results["steps"].values():
     r["share_of_peak"] = r["gflops_per_s"] / peak
-  os.makedirs(FLAGS.workdir, exist_ok=True)
-  with open(os.path.join(FLAGS.workdir, "results.json"), "w") as f:
-    json.dump(results, f, indent=1)
+  results["config"] = config_flags.get_config_filename(FLAGS["config"])
+  results["overrides"] = {k: str(v) for k, v in
+                          _flat(config_flags.get_override_values(FLAGS["config"])).items()}
+  results["flags"] = {"repeats": FLAGS.repeats, "rounds": FLAGS.rounds, "peak_n": FLAGS.peak_n}
+  results["provenance"] = provenance.collect(measure_peak=False)
+  path = throughput_report.result_path(FLAGS.results, results)
+  run_file.write_json(path, results)
   print(f"matmul peak: {peak:.0f} GFLOP/s ({results['device']})")
   print(f"{'step':7} {'ms':>7} {'rays/s':>9} {'samples/s':>11} {'GFLOP':>7} {'GFLOP/s':>8} {'peak':>6}")
   for name, r in results["steps"].items():
     print(f"{name:7} {1e3 * r['s_per_step']:7.1f} {r['rays_per_s']:9.0f} {r['samples_per_s']:11.0f} "
           f"{r['gflops']:7.2f} {r['gflops_per_s']:8.1f} {100 * r['share_of_peak']:5.1f}%")
+  print("wrote", path)
+
+
+def _flat(d, prefix=""):
+  """{'a': {'b': 1}} -> {'a.b': 1}: the command line's config overrides."""
+  out = {}
+  for k, v in d.items():
+    if isinstance(v, dict):
+      out.update(_flat(v, f"{prefix}{k}."))
+    else:
+      out[prefix + k] = v
+  return out
 
 
 if __name__ == "__main__":
