@@ -155,6 +155,20 @@ STUDIES = {
                     "L_empty switched on after 100 of Hi's ~570 steps"),
         ),
         reference="halo", seeds=3),
+    "hi_samples": Study(
+        title="Static scenes: Hi-NeRF's samples per ray inside the ray field's window",
+        question=("Whether the depth-guided Hi-NeRF can take fewer samples per ray than the "
+                  "CPU config's 32 at equal steps (a cost under 0.1 dB), so that each step is "
+                  "cheaper and HALO reaches a given error sooner."),
+        scenes=_PROCEDURAL,
+        variants=(
+            Variant("halo", "halo", note="32 depth-guided samples (the CPU config)"),
+            Variant("hi_samples_16", "halo", (("hi.sampler.num_samples", 16),),
+                    "16 samples in the window"),
+            Variant("hi_samples_8", "halo", (("hi.sampler.num_samples", 8),),
+                    "8 samples in the window"),
+        ),
+        reference="halo", seeds=2),
 }
 
 

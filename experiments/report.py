@@ -184,6 +184,18 @@ def front_table(by_method):
   return "\n".join(lines)
 
 
+def _time_ticks(ax, ticks):
+  """A log time axis labelled at the front's points (seconds), one label
+  where the seeds' ends (240, 241 s) would overprint."""
+  shown = []
+  for t in sorted(ticks):
+    if not shown or t > 1.05 * shown[-1]:
+      shown.append(t)
+  ax.set_xscale("log")
+  ax.minorticks_off()
+  ax.set_xticks(shown, [str(t) for t in shown])
+
+
 def plot_front(by_method, title, path):
   """Held-out PSNR and LPIPS (every view) against training seconds: the mean
   over seeds at each front point, the spread as a band."""
@@ -200,14 +212,8 @@ def plot_front(by_method, title, path):
         continue
       ax.fill_between(t, y.min(0), y.max(0), color=f"C{i}", alpha=0.2, lw=0)
       ax.plot(t, y.mean(0), "o-", color=f"C{i}", ms=3, label=f"{m} ({len(y)})")
-  shown = []  # one label where the seeds' ends (240, 241 s) would overprint
-  for t in sorted(ticks):
-    if not shown or t > 1.05 * shown[-1]:
-      shown.append(t)
   for ax, what in zip(axes, ("PSNR (dB)", "LPIPS (VGG)")):
-    ax.set_xscale("log")
-    ax.minorticks_off()
-    ax.set_xticks(shown, [str(t) for t in shown])
+    _time_ticks(ax, ticks)
     ax.set_xlabel("training seconds")
     ax.set_ylabel(f"held-out {what}, every view")
     ax.grid(alpha=0.3)
@@ -481,18 +487,93 @@ def write_suite(suite, mode, scenes, docs):
   return name
 
 
-def readme_block(all_suites):
-  lines = ["| suite | scene | " + " | ".join(METHOD_ORDER) + " |",
-           "|---|---|" + "---|" * len(METHOD_ORDER)]
+def reach_ratio(by_method, method="halo"):
+  """(seconds, ratio) for `method` to reach nerf_tuned's final PSNR (the mean
+  over seeds) on its front, the ratio to nerf_tuned's own seconds to it
+  (front_table's columns); None where either has no front or never reaches it."""
+  base = [r for r in by_method.get(BASELINE, []) if r.get("front")]
+  runs_ = [r for r in by_method.get(method, []) if r.get("front")]
+  if not base or not runs_:
+    return None
+  level = float(np.mean([r["psnr"] for r in base]))
+  t, ref = seconds_to_level(runs_, level), seconds_to_level(base, level)
+  if t is None or not ref:
+    return None
+  return t, t / ref
+
+
+def plot_fronts_overview(scenes, path, methods=(BASELINE, "halo")):
+  """One panel per scene with fronts: `methods`' mean held-out PSNR (every
+  view) against training seconds, the spread over seeds as a band, and
+  nerf_tuned's final PSNR as a dashed line. Returns the scenes drawn."""
+  drawn = [s for s in sorted(scenes)
+           if any(r.get("front") for m in methods for r in scenes[s].get(m, []))]
+  if not drawn:
+    return []
+  cols = min(3, len(drawn))
+  rows = -(-len(drawn) // cols)
+  fig, axes = plt.subplots(rows, cols, figsize=(3.4 * cols, 2.6 * rows), squeeze=False)
+  for ax, scene in zip(axes.flat, drawn):
+    ticks = set()
+    for i, m in enumerate(methods):
+      f = mean_front(scenes[scene].get(m, []))
+      if f is None:
+        continue
+      t, mean, psnr, _ = f
+      ticks |= {round(float(x)) for x in t}
+      ax.fill_between(t, psnr.min(0), psnr.max(0), color=f"C{i}", alpha=0.2, lw=0)
+      ax.plot(t, mean, "o-", color=f"C{i}", ms=3, label=f"{m} ({len(psnr)})")
+    base = scenes[scene].get(BASELINE)
+    if base:
+      ax.axhline(np.mean([r["psnr"] for r in base]), color="k", ls="--", lw=0.8)
+    _time_ticks(ax, ticks)
+    ax.set_title(scene, fontsize=9)
+    ax.grid(alpha=0.3)
+    ax.tick_params(labelsize=7)
+  for ax in axes.flat[len(drawn):]:
+    ax.axis("off")
+  axes[0, 0].legend(fontsize=7)
+  fig.supxlabel("training seconds", fontsize=9)
+  fig.supylabel("held-out PSNR (dB), every view", fontsize=9)
+  fig.tight_layout()
+  fig.savefig(path, dpi=100)
+  plt.close(fig)
+  return drawn
+
+
+def readme_block(all_suites, docs=None):
+  """The README's results table (and, where runs have fronts and `docs` is
+  given, the fronts figure written there and HALO's time to nerf_tuned's end)."""
+  fronts = {key: {s for s, by in scenes.items()
+                  if any(r.get("front") for rs in by.values() for r in rs)}
+            for key, scenes in all_suites.items()}
+  with_reach = any(fronts.values())
+  lines = ["| suite | scene | " + " | ".join(METHOD_ORDER) + " |"
+           + (" halo: s to nerf_tuned's end (× its time) |" if with_reach else ""),
+           "|---|---|" + "---|" * (len(METHOD_ORDER) + with_reach)]
+  figures = []
   for (suite, mode), scenes in sorted(all_suites.items()):
     if suite in ("smoke", "auto", "ingredients"):
       continue
     for scene in sorted(scenes):
       by = scenes[scene]
       cells = [stat([r["psnr"] for r in by[m]])[0] if m in by else "" for m in METHOD_ORDER]
+      if with_reach:
+        reach = reach_ratio(by)
+        cells.append("" if scene not in fronts[(suite, mode)] else
+                     "not reached" if reach is None else f"{reach[0]:.0f} ({reach[1]:.2f})")
       lines.append(f"| [{suite}/{mode}](docs/results/{suite}_{mode}.md) | {scene} | "
                    + " | ".join(cells) + " |")
-  return "\n".join(lines)
+    if docs and fronts[(suite, mode)]:
+      png = f"{suite}_{mode}_fronts.png"
+      drawn = plot_fronts_overview(scenes, os.path.join(docs, png))
+      ratios = [reach_ratio(scenes[s]) for s in drawn]
+      half = sum(1 for r in ratios if r is not None and r[1] <= 0.5)
+      figures += ["", f"`{suite}/{mode}`, error against training time (every held-out view; "
+                  f"the dashed line is nerf_tuned's final PSNR): HALO reaches it in at most "
+                  f"half of nerf_tuned's time on {half} of the {len(drawn)} scenes with fronts.",
+                  "", f"![fronts](docs/results/{png})"]
+  return "\n".join(lines + figures)
 
 
 def update_readme(path, block):
@@ -512,7 +593,7 @@ def main(argv):
   suites = load(FLAGS.results)
   for (suite, mode), scenes in sorted(suites.items()):
     print("wrote", os.path.join(FLAGS.docs, write_suite(suite, mode, scenes, FLAGS.docs) + ".md"))
-  if FLAGS.readme and update_readme(FLAGS.readme, readme_block(suites)):
+  if FLAGS.readme and update_readme(FLAGS.readme, readme_block(suites, FLAGS.docs)):
     print("updated", FLAGS.readme)
 
 

@@ -184,3 +184,14 @@ def test_front_table_gives_seconds_to_the_baselines_end(tmp_path):
   assert "freenerf" not in table
   name = report.write_suite("cpu", "time", report.load(root)[("cpu", "time")], docs)
   assert os.path.exists(os.path.join(docs, f"{name}_s1_front.png"))
+  # The README block: halo's seconds to nerf_tuned's end and the ratio, the
+  # fronts figure, and the count of scenes reached in half the time or less.
+  assert report.reach_ratio(by) == (30.0, 0.125)
+  _write(root, "nerf_tuned", 0, _record(20.0, [[1, 20.0]]), scene="s2")  # no front
+  block = report.readme_block(report.load(root), docs)
+  assert "halo: s to nerf_tuned's end (× its time) |" in block
+  assert block.splitlines()[2].endswith(
+      "| s1 |  | 21.00 ± 1.41 | 15.00 | 23.00 ± 0.00 |  |  | 30 (0.12) |")
+  assert block.splitlines()[3].endswith("| s2 |  | 20.00 |  |  |  |  |  |")
+  assert "on 1 of the 1 scenes with fronts" in block
+  assert os.path.exists(os.path.join(docs, "cpu_time_fronts.png"))
