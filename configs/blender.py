@@ -3,7 +3,7 @@
 Variants (the string after the colon):
   <scene>_8view        paper protocol, 400x400 (factor 2), all 200 test views
   <scene>_8view_cpu    100x100 (factor 8), test views r_0, r_8, ..., r_192,
-                       CPU-sized models and a wall-clock budget (docs/results_lego_cpu.md)
+                       CPU-sized models and a wall-clock budget (docs/benchmark.md)
   lego_oneside[_cpu]   the 14 one-side lego views (Lo-P.E. L=5, s=1)
   lego_all[_cpu]       all 100 training views (the upper reference)
 Append a method's name to any variant for that method on the same views
