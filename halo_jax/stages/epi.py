@@ -9,8 +9,8 @@ angle range [theta_n, theta_f], parameterised by tau in [0, 1].
   field follows the radiance field's expected tau through
   L_consist = |tau_ray - tau_nerf|^2 (tau_nerf held fixed in that loss).
   Options from the authors' code and the paper, off by default
-  (docs/light_fields.md, findings 16-20): random rays between the cameras, a colour
-  head on the ray field, and L_consist into the radiance field as well.
+  (docs/light_fields.md): random rays between the cameras, a colour head on
+  the ray field, and L_consist into the radiance field as well.
 With `random_background`, training rays are composited onto a random colour
 (either sampler), so every ray must end in something opaque.
 """
