@@ -108,6 +108,7 @@ def main(argv):
   del argv
   logging.set_verbosity(logging.WARNING)
   c = FLAGS.config
+  overrides = runs.dotted_fields(config_flags.get_override_values(FLAGS["config"]))
   near, far = c.data.near, c.data.far
   n_data = 80000
   o, d = _rays(n_data)
@@ -154,7 +155,7 @@ def main(argv):
   # the baseline with the command line's overrides too (a dtype, a size)
   nerf_step("nerf", runs.load_config_as(
       config_flags.get_config_filename(FLAGS["config"]), "nerf_tuned",
-      _flat(config_flags.get_override_values(FLAGS["config"]))), "hi")
+      overrides), "hi")
   # Held-out rendering with the Hi field (forward only).
   model = models.nerf_from_config(c, "hi")
   ev = {b: raycast.make_eval_fn(model, c.hi.sampler, near=near, far=far, white_background=True,
@@ -174,8 +175,7 @@ def main(argv):
   for r in results["steps"].values():
     r["share_of_peak"] = r["gflops_per_s"] / peak
   results["config"] = config_flags.get_config_filename(FLAGS["config"])
-  results["overrides"] = {k: str(v) for k, v in
-                          _flat(config_flags.get_override_values(FLAGS["config"])).items()}
+  results["overrides"] = {k: str(v) for k, v in overrides.items()}
   results["flags"] = {"repeats": FLAGS.repeats, "rounds": FLAGS.rounds, "peak_n": FLAGS.peak_n}
   results["provenance"] = provenance.collect(measure_peak=False)
   path = throughput_report.result_path(FLAGS.results, results)
@@ -186,17 +186,6 @@ def main(argv):
     print(f"{name:7} {1e3 * r['s_per_step']:7.1f} {r['rays_per_s']:9.0f} {r['samples_per_s']:11.0f} "
           f"{r['gflops']:7.2f} {r['gflops_per_s']:8.1f} {100 * r['share_of_peak']:5.1f}%")
   print("wrote", path)
-
-
-def _flat(d, prefix=""):
-  """{'a': {'b': 1}} -> {'a.b': 1}: the command line's config overrides."""
-  out = {}
-  for k, v in d.items():
-    if isinstance(v, dict):
-      out.update(_flat(v, f"{prefix}{k}."))
-    else:
-      out[prefix + k] = v
-  return out
 
 
 if __name__ == "__main__":

@@ -114,15 +114,7 @@ def run(config):
   n_test = 0
   spec = config_flags.get_config_filename(FLAGS["config"])
   overrides = config_flags.get_override_values(FLAGS["config"])
-  flat = {}
-
-  def flatten(d, prefix=""):
-    for k, v in d.items():
-      if isinstance(v, dict):
-        flatten(v, f"{prefix}{k}.")
-      else:
-        flat[prefix + k] = v
-  flatten(overrides)
+  flat = runs.dotted_fields(overrides)
   # Each method is applied once to the scene's own config (methods.apply),
   # then the command line's overrides, as --config gave them.
   load = lambda name: runs.load_config_as(spec, name, flat)  # pylint: disable=unnecessary-lambda-assignment

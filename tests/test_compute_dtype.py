@@ -5,7 +5,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from halo_jax import defaults, models, validate
+from halo_jax import defaults, encoding, models, validate
 
 
 @pytest.mark.parametrize("use_viewdirs", [True, False])
@@ -37,7 +37,6 @@ def test_float32_default_is_the_plain_field():
   # the same layers by hand, in float32
   p = params["params"]
   h = x
-  from halo_jax import encoding  # pylint: disable=import-outside-toplevel
   h = encoding.positional_encoding(x, 10, 1.0)
   for i in range(2):
     h = jax.nn.relu(h @ p["trunk"][f"dense_{i}"]["kernel"] + p["trunk"][f"dense_{i}"]["bias"])
