@@ -42,6 +42,8 @@ flags.DEFINE_integer("max_runs", 0, "Stop after this many runs (0: all).")
 flags.DEFINE_bool("dry_run", False, "Print the plan and each run's state; train nothing.")
 flags.DEFINE_bool("score_validation", False, "Train nothing: add the validation scores to "
                   "finished runs' files that lack them, from their workdirs in --scratch.")
+flags.DEFINE_bool("add_fronts", False, "Rerun finished runs whose file has no front although "
+                  "the suite records one (files from before fronts); the new file replaces it.")
 flags.DEFINE_integer("first_core", -1, "With a suite pinned to k cores: the first of them "
                      "(-1: the machine's last k), e.g. to run two suites side by side.")
 
@@ -122,7 +124,11 @@ def front_points(workdir: str, record: dict, with_lpips: bool) -> list:
   final = {"at_s": record["wall_s"], "wall_s": record["wall_s"], "stage": last,
            "step": record["stages"][last]["step"], "final": True,
            **{k: record[k] for k in ("psnr", "ssim", "lpips") if record.get(k) is not None}}
-  return front.evaluate_front(workdir, with_lpips) + [final]
+  points = front.evaluate_front(workdir, with_lpips)
+  if not points:
+    raise RuntimeError(f"{workdir} has no snapshots to score: it was trained before the suite "
+                       "recorded fronts; remove it (or pass another --scratch) to rerun it")
+  return points + [final]
 
 
 def run_one(suite_name, suite, scene, method, seed, mode, results, scratch) -> dict:
@@ -164,12 +170,18 @@ def add_validation(suite_name, scene, method, seed, mode, results, scratch) -> s
   return "scored"
 
 
-def _state(path, scene):
+def _state(path, scene, suite, add_fronts=False):
   if os.path.exists(path):
+    if add_fronts and suite.front_s:
+      with open(path) as f:
+        if not json.load(f).get("front"):
+          return "no front" if _has_data(scene) else "no data"
     return "done"
-  if scene.needs and not os.path.isdir(os.path.join(data_root(), scene.needs)):
-    return "no data"
-  return "to run"
+  return "to run" if _has_data(scene) else "no data"
+
+
+def _has_data(scene) -> bool:
+  return not scene.needs or os.path.isdir(os.path.join(data_root(), scene.needs))
 
 
 def main(argv):
@@ -192,9 +204,9 @@ def main(argv):
   done, failed = 0, []
   for scene, method, seed in todo:
     path = result_path(FLAGS.results, FLAGS.suite, FLAGS.mode, scene, method, seed)
-    state = _state(path, scene)
+    state = _state(path, scene, suite, FLAGS.add_fronts)
     tag = f"{scene.name}/{method}/seed{seed}"
-    if FLAGS.dry_run or state != "to run":
+    if FLAGS.dry_run or state not in ("to run", "no front"):
       print(f"{state:8} {tag}", flush=True)
       continue
     if FLAGS.max_runs and done >= FLAGS.max_runs:

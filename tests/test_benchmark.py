@@ -1,6 +1,7 @@
 """The benchmark suite's plan, per-run configs and result files."""
 import json
 import os
+import shutil
 import sys
 
 import pytest
@@ -73,7 +74,9 @@ def test_smoke_suite_writes_and_skips(tmp_path):
   assert saved["curve"] and all(t <= saved["wall_s"] + 1e-6 for t, _ in saved["curve"])
   for field in ("versions", "device", "cpu", "git", "matmul_peak_gflops", "command"):
     assert field in saved["provenance"]
-  assert benchmark._state(path, scene) == "done"  # pylint: disable=protected-access
+  state = benchmark._state  # pylint: disable=protected-access
+  assert state(path, scene, suites.SMOKE) == "done"
+  assert state(path, scene, suites.SMOKE, add_fronts=True) == "done"
   assert os.path.getsize(path) < 20000
   # the front: the state at each of the suite's times the run reached, then the final
   front = saved["front"]
@@ -95,3 +98,14 @@ def test_smoke_suite_writes_and_skips(tmp_path):
     assert json.load(f)["validation"]["stages"]["hi"]["psnr"] == pytest.approx(
         val["stages"]["hi"]["psnr"], abs=1e-4)
   assert benchmark.add_validation(*args) == "has it"
+  # a file from before fronts is rerun with --add_fronts, in a workdir that
+  # has snapshots: the old workdir has none left to score, and says so
+  saved.pop("front")
+  with open(path, "w") as f:
+    json.dump(saved, f)
+  assert state(path, scene, suites.SMOKE) == "done"
+  assert state(path, scene, suites.SMOKE, add_fronts=True) == "no front"
+  shutil.rmtree(os.path.join(benchmark.workdir_of(scratch, "smoke", "time", scene, "nerf_tuned",
+                                                  0), "hi", "snapshots"))
+  with pytest.raises(RuntimeError, match="has no snapshots"):
+    benchmark.run_one("smoke", suites.SMOKE, scene, "nerf_tuned", 0, "time", results, scratch)
