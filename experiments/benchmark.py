@@ -105,7 +105,7 @@ def score_validation(workdir: str, record: dict, split: str) -> dict:
   in `record['stages']`) scored on all views of `split`, after training, so
   it costs no training time: {'split', 'num_views', 'stages': {name: {'psnr',
   'ssim'}}}. PSNR and SSIM as training's own evaluation scores them."""
-  from halo_jax.evaluate import __main__ as evaluation  # pylint: disable=g-import-not-at-top
+  from halo_jax.cli import evaluate as evaluation  # pylint: disable=g-import-not-at-top
   stages, num_views = {}, 0
   for name, stage in record["stages"].items():
     if "psnr" not in stage:

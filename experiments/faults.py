@@ -3,7 +3,7 @@ user sees: writes results/faults.json and docs/failures.md from it.
 
   python experiments/faults.py            # ~3 minutes on 2 CPU cores
 
-Each case launches `python -m halo_jax.main` (or experiments/few_shot.py) on
+Each case launches `python -m halo_jax.cli.train` (or experiments/few_shot.py) on
 the built-in scene with a tiny model, and records the exit code, the last
 line on stderr, whether a Python traceback was printed, and what the workdir
 holds afterwards.
@@ -24,7 +24,7 @@ TINY = ["--config.lo.steps=3", "--config.lo.model.width=16", "--config.lo.model.
 
 
 def main_cmd(wd, *args, config="configs/default.py", stages="lo"):
-  return [sys.executable, "-m", "halo_jax.main", f"--config={config}", f"--workdir={wd}",
+  return [sys.executable, "-m", "halo_jax.cli.train", f"--config={config}", f"--workdir={wd}",
           f"--config.stages={stages}", *TINY, *args]
 
 

@@ -2,9 +2,9 @@
 
   python experiments/few_shot.py --config=configs/default.py --workdir=/tmp/halo_default
 
-The same as `halo-compare` (halo_jax/compare.py, which documents the flags).
+The same as `halo-compare` (halo_jax/cli/compare.py, which documents the flags).
 """
-from halo_jax import compare
+from halo_jax.cli import compare
 
 if __name__ == "__main__":
   compare.cli()

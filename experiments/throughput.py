@@ -28,7 +28,7 @@ if __package__ in (None, ""):  # run as a script: the repository root holds `exp
 from experiments import run_file, throughput_report  # pylint: disable=g-import-not-at-top
 from halo_jax import camera, geometry, models, provenance, ray_fields  # pylint: disable=g-import-not-at-top
 from halo_jax import raycast, runs  # pylint: disable=g-import-not-at-top
-from halo_jax.stages import loop, radiance, ray  # pylint: disable=g-import-not-at-top
+from halo_jax.stages import radiance, ray, step as train_step  # pylint: disable=g-import-not-at-top
 
 FLAGS = flags.FLAGS
 config_flags.DEFINE_config_file("config", "configs/default.py", "Config (path[:variant]).")
@@ -81,14 +81,14 @@ def _rays(n, key=0):
 
 
 def step_throughput(loss_fn, cfg, params, data, rays_per_step, samples_per_ray):
-  tx = loop.optimizer(cfg)
-  step = loop.make_step(loss_fn, tx, cfg.microbatches)
+  tx = train_step.optimizer(cfg)
+  step = train_step.make_step(loss_fn, tx, cfg.microbatches)
   params = jax.tree_util.tree_map(jnp.copy, params)  # the step donates its input
-  state = loop.initial_state(params, tx)
+  state = train_step.initial_state(params, tx)
   key = jax.random.PRNGKey(0)
   # XLA counts a scan's body once, so FLOPs come from the whole-batch step:
   # the parts do the same arithmetic.
-  flops = _flops(loop.make_step(loss_fn, tx), state, data, key)
+  flops = _flops(train_step.make_step(loss_fn, tx), state, data, key)
   fn = lambda s: step(s, data, key)
   # Donation consumes the state, so time chains of steps.
   state, _, _ = fn(state)

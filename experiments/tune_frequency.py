@@ -10,7 +10,7 @@ renders (halo_jax/tuning.py) and stops at the first point below
 Writes DIR/results.json ({"grid": [{"L", "scale", "criterion", "psnr", ...}],
 "chosen": {"L", "scale"}}), DIR/results.md and DIR/criterion_vs_psnr.png, and
 prints the table. Use the choice with
-`python -m halo_jax.main ... --config.lo.encoding.L=<L> --config.lo.encoding.scale=<s>`,
+`python -m halo_jax.cli.train ... --config.lo.encoding.L=<L> --config.lo.encoding.scale=<s>`,
 or let a launch search by itself with `--config.lo.encoding.auto=True`.
 """
 import os

@@ -11,6 +11,8 @@ import jax
 import ml_collections
 import orbax.checkpoint as ocp
 
+from halo_jax import defaults
+
 
 def manager(directory: str, max_to_keep: Optional[int] = 2) -> ocp.CheckpointManager:
   """Checkpoints of one folder, the newest `max_to_keep` kept (None: all)."""
@@ -47,5 +49,16 @@ def write_config(path: str, config: ml_collections.ConfigDict) -> None:
 
 
 def read_config(path: str) -> ml_collections.ConfigDict:
+  """A config written by write_config. Fields the file predates take their
+  defaults (defaults.base_config), so code reads every field by name."""
   with open(path) as f:
-    return ml_collections.ConfigDict(json.load(f))
+    saved = json.load(f)
+  return ml_collections.ConfigDict(_overlay(defaults.base_config().to_dict(), saved))
+
+
+def _overlay(base: dict, saved: dict) -> dict:
+  """`base` with every field of `saved` written over it, section by section."""
+  for k, v in saved.items():
+    base[k] = _overlay(base[k], v) if isinstance(v, dict) and isinstance(base.get(k), dict) \
+        else v
+  return base

@@ -267,8 +267,8 @@ def _nerf_kwargs(config, name):
                     width=m.width, depth=m.depth, skips=tuple(m.skips),
                     use_viewdirs=m.use_viewdirs, dir_freqs=m.dir_freqs,
                     density_bias=m.density_bias,
-                    density_activation=m.get("density_activation", "softplus"),
-                    compute_dtype=m.get("compute_dtype", "float32"))
+                    density_activation=m.density_activation,
+                    compute_dtype=m.compute_dtype)
 
 
 def _static_nerf(config, name):
@@ -292,7 +292,7 @@ def _epi_nerf(config, name):
                  theta_features=f.theta_features, uv_std=f.uv_std,
                  uv_features=f.uv_features, seed=f.seed, width=m.width, depth=m.depth,
                  skips=tuple(m.skips), density_bias=m.density_bias,
-                 compute_dtype=m.get("compute_dtype", "float32"))
+                 compute_dtype=m.compute_dtype)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -324,7 +324,7 @@ def nerf_from_config(config, name: str):
   With config[name].encoding.with_lo, Lo-NeRF's P.E. (config.lo.encoding) is
   prepended to the stage's own.
   """
-  kind = config[name].model.get("kind", "nerf")
+  kind = config[name].model.kind
   return MODELS.get(kind, f"{name}.model.kind").build(config, name)
 
 
@@ -337,4 +337,4 @@ def init_nerf(model, kind: str, seed: int):
 
 def is_dynamic(config, name: str) -> bool:
   """Whether stage `name`'s field takes time as an input."""
-  return MODELS.get(config[name].model.get("kind", "nerf"), f"{name}.model.kind").dynamic
+  return MODELS.get(config[name].model.kind, f"{name}.model.kind").dynamic

@@ -31,7 +31,7 @@ def initialize(cfg) -> None:
   if not cfg.multihost:
     return
   jax.config.update("jax_cpu_collectives_implementation", "gloo")
-  kwargs = dict(heartbeat_timeout_seconds=int(cfg.get("heartbeat_s", 100)))
+  kwargs = dict(heartbeat_timeout_seconds=int(cfg.heartbeat_s))
   if cfg.coordinator:
     kwargs.update(coordinator_address=cfg.coordinator, num_processes=cfg.num_processes,
                   process_id=cfg.process_id)

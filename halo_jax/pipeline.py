@@ -13,7 +13,7 @@ import json
 import os
 
 from halo_jax import datasets, parallel, provenance, stages, tuning, validate, workdir_lock
-from halo_jax.stages import base, loop
+from halo_jax.stages import base, metrics_log
 from halo_jax.stages.order import needed, parse_stages, stage_names
 from halo_jax.stages.state import load, save, stage_dir
 from halo_jax.stages.workdir import check_workdir
@@ -77,11 +77,11 @@ def _run(config, workdir, dataset):
   config = with_budget(config)
   dataset = dataset or datasets.load(config.data, workdir)
   run_now = parse_stages(config.stages, config)
-  if config.lo.encoding.get("auto", False) and "lo" in needed(config):
+  if config.lo.encoding.auto and "lo" in needed(config):
     # The search's own training time is not part of this run's budget.
     config.lo.encoding.L, config.lo.encoding.scale = tuning.chosen_encoding(
         config, workdir, dataset, run)
-  log = loop.MetricsLog(workdir)
+  log = metrics_log.MetricsLog(workdir)
   mesh = parallel.make_mesh(config.parallel)
   states, infos, wall = {}, {}, 0.0
   until = _budget_until(config)

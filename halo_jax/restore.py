@@ -50,7 +50,7 @@ def load(workdir: str, stage: Optional[str] = None, data_root: str = "") -> Rest
   name = stage or default_stage(workdir)
   if name is None or not finished(workdir, name):
     raise NothingToRestore(f"{workdir}: no finished stage {stage or '(any that renders)'} "
-                           "to restore (train it first: python -m halo_jax.main ...)")
+                           "to restore (train it first: python -m halo_jax.cli.train ...)")
   config = checkpoint.read_config(os.path.join(state.stage_dir(workdir, name), "final",
                                                "config.json"))
   trainer = base.trainer_of(config, name)

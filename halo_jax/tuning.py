@@ -58,7 +58,7 @@ def criterion_of(render, dataset, config) -> dict:
   rho = lambda b: [float(frequency.relative_spectrum_difference(
       pairs["a"][i:i + 1], b[i:i + 1], t.mask_fraction)) for i in range(len(b))]
   plain, warped = rho(pairs["b"]), rho(pairs["b_warped"])
-  per_pair = warped if t.get("warp", False) else plain
+  per_pair = warped if t.warp else plain
   return {"criterion": float(np.mean(per_pair)), "per_pair": per_pair,
           "criterion_plain": float(np.mean(plain)), "criterion_warped": float(np.mean(warped)),
           "shift_px": [float(x) for x in pairs["shift_px"]],
@@ -112,7 +112,7 @@ def tune(config, workdir: str, dataset, run_stages, full_grid: bool = False) -> 
                  "psnr": ev.get("psnr"), "ssim": ev.get("ssim"), "lpips": ev.get("lpips"),
                  "wall_s": info["wall_s"], "steps": info["step"]})
     row = grid[-1]
-    row["score"] = score(row["criterion"], grid[0]["criterion"], t.get("relative", False))
+    row["score"] = score(row["criterion"], grid[0]["criterion"], t.relative)
     if chosen is None and row["score"] < t.threshold:
       chosen = {"L": L, "scale": s}
       if not full_grid:

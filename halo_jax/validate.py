@@ -34,8 +34,8 @@ def _check_training(cfg, name):
         f"{name}.batch_rays={cfg.batch_rays}")
   for field in ("checkpoint_every", "log_every"):
     _positive_int(cfg[field], f"{name}.{field}")
-  check(isinstance(cfg.get("max_nonfinite", 0), int) and cfg.get("max_nonfinite", 0) >= 0,
-        f"{name}.max_nonfinite={cfg.get('max_nonfinite')!r}: must be an integer >= 0")
+  check(isinstance(cfg.max_nonfinite, int) and cfg.max_nonfinite >= 0,
+        f"{name}.max_nonfinite={cfg.max_nonfinite!r}: must be an integer >= 0")
   check(cfg.max_seconds >= 0, f"{name}.max_seconds={cfg.max_seconds!r}: must be >= 0")
   for field in ("min_steps", "target_rays", "stop_at_step"):
     if field in cfg:
@@ -83,7 +83,7 @@ def _check_front(config):
 
 
 def _check_auto(config, dspec):
-  if not config.lo.encoding.get("auto", False):
+  if not config.lo.encoding.auto:
     return
   final = config.final_stage
   check("lo" in order.needed(config, final) and config.lo.kind == "radiance",
@@ -103,7 +103,7 @@ def validate(config) -> None:
   dspec = datasets.spec_of(config.data)
   if config.data.kind == "procedural":
     scenes = sorted(datasets.procedural.SCENES)
-    check(config.data.get("procedural_scene", "spheres") in scenes,
+    check(config.data.procedural_scene in scenes,
           f"data.procedural_scene={config.data.get('procedural_scene')!r}: must be one of {scenes}")
   for name in order.stage_names(config):  # names the field before the graph reads it
     base.trainer_of(config, name)

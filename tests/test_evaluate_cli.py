@@ -1,4 +1,4 @@
-"""`python -m halo_jax.evaluate`: restores a finished stage, reproduces the
+"""`halo-eval` (halo_jax/cli/evaluate.py): restores a finished stage, reproduces the
 metrics its training recorded, writes nerfbaselines' layout."""
 import json
 import os
@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from halo_jax import pipeline
-from halo_jax.evaluate import __main__ as evaluate_cli
+from halo_jax.cli import evaluate as evaluate_cli
 from conftest import pipeline_config
 
 
@@ -58,11 +58,11 @@ def test_evaluate_other_stage_and_split(finished_run):
 
 def test_evaluate_refuses_a_stage_without_images(finished_run, tmp_path):
   wd, _ = finished_run
-  proc = subprocess.run([sys.executable, "-m", "halo_jax.evaluate", f"--workdir={wd}",
+  proc = subprocess.run([sys.executable, "-m", "halo_jax.cli.evaluate", f"--workdir={wd}",
                          "--stage=ray"], capture_output=True, text=True)
   assert proc.returncode == 2
   assert "stage 'ray' (ray_field) makes no images" in proc.stderr
   assert "Traceback" not in proc.stderr
-  proc = subprocess.run([sys.executable, "-m", "halo_jax.evaluate",
+  proc = subprocess.run([sys.executable, "-m", "halo_jax.cli.evaluate",
                          f"--workdir={tmp_path}"], capture_output=True, text=True)
   assert proc.returncode == 2 and "no finished stage" in proc.stderr

@@ -7,20 +7,20 @@ import sys
 
 import jax
 import jax.numpy as jnp
-import ml_collections
 import numpy as np
 import optax
 import pytest
 
-from halo_jax import pipeline, workdir_lock
+from halo_jax import defaults, pipeline, workdir_lock
 from halo_jax.stages import loop
+from halo_jax.stages import step as train_step
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 
 def _step(loss_fn, tx, params):
-  step = loop.make_step(lambda p, data, key, step, part=None: (loss_fn(p), {}), tx)
-  state = loop.initial_state(params, tx)
+  step = train_step.make_step(lambda p, data, key, step, part=None: (loss_fn(p), {}), tx)
+  state = train_step.initial_state(params, tx)
   new, _, _ = step(jax.tree_util.tree_map(jnp.copy, state), None, jax.random.PRNGKey(0))
   return state, new
 
@@ -41,7 +41,7 @@ def test_guard_names_the_first_non_finite_quantity(loss_fn, tx, what, leaf):
   params = dict(PARAMS, b=jnp.array([1.0, 3e38])) if what == "parameter" else PARAMS
   before, after = _step(loss_fn, tx, params)
   step, got_what, got_leaf = (int(x) for x in after["first_bad"])
-  assert (step, loop.NONFINITE_WHAT[got_what]) == (0, what)
+  assert (step, train_step.NONFINITE_WHAT[got_what]) == (0, what)
   if leaf is not None:
     assert got_leaf == leaf
   assert int(after["skipped"]) == 1 and int(after["streak"]) == 1
@@ -56,10 +56,10 @@ def test_a_finite_step_is_taken_and_resets_the_streak():
 
 
 def _train(tmp_path, bad_from, bad_until, max_nonfinite=3):
-  cfg = ml_collections.ConfigDict(dict(
-      steps=12, batch_rays=1, microbatches=1, lr_init=0.1, lr_final=0.1, lr_decay_steps=0,
-      max_seconds=0.0, checkpoint_every=100, log_every=1, eval_every=0, eval_every_s=0.0,
-      max_nonfinite=max_nonfinite))
+  cfg = defaults.base_config().lo  # a stage's config: every field the loop reads
+  cfg.update(steps=12, batch_rays=1, microbatches=1, lr_init=0.1, lr_final=0.1,
+             lr_decay_steps=0, max_seconds=0.0, checkpoint_every=100, log_every=1,
+             eval_every=0, eval_every_s=0.0, min_steps=0, max_nonfinite=max_nonfinite)
 
   def loss_fn(p, data, key, step, part=None):
     bad = (step >= bad_from) & (step < bad_until)
@@ -80,7 +80,7 @@ def test_isolated_non_finite_steps_are_skipped(tmp_path):
 
 
 def _cli(args, tmp_path):
-  cmd = [sys.executable, "-m", "halo_jax.main", "--config=configs/default.py",
+  cmd = [sys.executable, "-m", "halo_jax.cli.train", "--config=configs/default.py",
          f"--workdir={tmp_path / 'run'}", "--config.stages=lo", *args]
   return subprocess.run(cmd, cwd=REPO, capture_output=True, text=True, timeout=300)
 

@@ -157,7 +157,7 @@ def test_relative_criterion_identical_and_grating_closed_form():
 
 
 def test_sweep_values_with_commas_are_a_json_list(config):
-  from halo_jax import sweep  # pylint: disable=g-import-not-at-top
+  from halo_jax.cli import sweep  # pylint: disable=g-import-not-at-top
   points = sweep.parse_sweeps(config, ['data.train_views=["r_0,r_13", "r_0,r_13,r_26"]',
                                        "lo.encoding.L=3,5"])
   assert [p[0] for p in points] == [("data.train_views", "r_0,r_13")] * 2 + [

@@ -12,7 +12,8 @@ import pytest
 from conftest import tiny_config
 from halo_jax import losses, methods, models, pipeline, raycast, runs, samplers, validate
 from halo_jax.registry import ConfigError
-from halo_jax.stages import batches, loop
+from halo_jax.stages import batches
+from halo_jax.stages import step as train_step
 
 
 def freenerf_mask_reference(L, t, T):
@@ -101,10 +102,10 @@ def test_one_image_batches_stay_in_one_view_and_its_crop():
 def test_lr_decay_steps_gives_the_original_schedule():
   c = tiny_config().hi
   c.update(lr_init=5e-4, lr_final=5e-5, steps=100)
-  over_cap = loop.schedule(c)
+  over_cap = train_step.schedule(c)
   np.testing.assert_allclose([float(over_cap(0)), float(over_cap(100))], [5e-4, 5e-5], rtol=1e-5)
   c.lr_decay_steps = 500000  # the original NeRF's: 10x per 500k steps, whatever the cap
-  original = loop.schedule(c)
+  original = train_step.schedule(c)
   for step in (0, 100, 1000, 250000):
     np.testing.assert_allclose(float(original(step)), 5e-4 * 0.1 ** (step / 500000), rtol=1e-5)
 

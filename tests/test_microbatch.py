@@ -9,7 +9,8 @@ import pytest
 
 from conftest import pipeline_config, tiny_config
 from halo_jax import pipeline, raycast, rng, stages
-from halo_jax.stages import loop
+from halo_jax.stages import microbatch
+from halo_jax.stages import step as train_step
 from test_lightfield import lf_config, write_light_field
 
 
@@ -31,27 +32,27 @@ def test_per_ray_draws_do_not_depend_on_the_cut():
 
 def test_part_of_and_checks():
   x = jnp.arange(12)
-  np.testing.assert_array_equal(loop.part_of(x, (1, 3)), [4, 5, 6, 7])
-  assert loop.part_of(x, None) is x
+  np.testing.assert_array_equal(microbatch.part_of(x, (1, 3)), [4, 5, 6, 7])
+  assert microbatch.part_of(x, None) is x
   c = tiny_config()
   c.lo.microbatches = 5
   with pytest.raises(ValueError, match="microbatches=5 does not divide lo.batch_rays=64"):
-    loop.check_parts(c.lo, 64, "lo.batch_rays")
+    microbatch.check_parts(c.lo, 64, "lo.batch_rays")
 
 
 def test_gradients_of_parts_equal_the_whole_batch():
   # A loss whose per-ray terms use per-ray random draws, as the stages' do.
   def loss_fn(w, data, key, step, part=None):
-    keys = loop.part_of(jax.random.split(key, data.shape[0]), part)
-    x = loop.part_of(data, part)
+    keys = microbatch.part_of(jax.random.split(key, data.shape[0]), part)
+    x = microbatch.part_of(data, part)
     noise = rng.normal(keys, x.shape)
     loss = jnp.mean(jnp.tanh(x @ w + noise) ** 2)
     return loss, {"m": loss}
   w = jax.random.normal(jax.random.PRNGKey(1), (4, 4))
   data = jax.random.normal(jax.random.PRNGKey(2), (32, 4))
   key = jax.random.PRNGKey(5)
-  (l1, a1), g1 = loop.loss_and_grads(loss_fn, w, data, key, 0, parts=1)
-  (l4, a4), g4 = loop.loss_and_grads(loss_fn, w, data, key, 0, parts=4)
+  (l1, a1), g1 = train_step.loss_and_grads(loss_fn, w, data, key, 0, parts=1)
+  (l4, a4), g4 = train_step.loss_and_grads(loss_fn, w, data, key, 0, parts=4)
   np.testing.assert_allclose(l4, l1, rtol=1e-6)
   np.testing.assert_allclose(a4["m"], a1["m"], rtol=1e-6)
   np.testing.assert_allclose(g4, g1, rtol=1e-5, atol=1e-7)

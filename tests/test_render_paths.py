@@ -11,7 +11,7 @@ from halo_jax.datasets.base import DataError, Dataset, Views
 from halo_jax.datasets.llff import NDCViews
 from halo_jax.datasets.stanford_lf import LightFieldViews
 from halo_jax.geometry import Geometry
-from halo_jax.render import __main__ as render_cli
+from halo_jax.cli import render as render_cli
 from conftest import pipeline_config
 
 

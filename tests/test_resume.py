@@ -8,21 +8,23 @@ import time
 
 import jax
 import jax.numpy as jnp
-import ml_collections
 import numpy as np
 import optax
 import pytest
 
-from halo_jax import checkpoint, pipeline, stages
+from halo_jax import checkpoint, defaults, pipeline, stages
 from halo_jax.stages import loop
+from halo_jax.stages import step as train_step
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 
 def _loop_cfg(steps):
-  return ml_collections.ConfigDict(dict(
-      steps=steps, microbatches=1, lr_init=0.1, lr_final=0.1, max_seconds=0.0, log_every=1,
-      checkpoint_every=100, eval_every=0, eval_every_s=0.0))
+  cfg = defaults.base_config().ray  # a stage's config: every field the loop reads
+  cfg.update(steps=steps, microbatches=1, lr_init=0.1, lr_final=0.1, max_seconds=0.0,
+             log_every=1, checkpoint_every=100, min_steps=0, max_nonfinite=0)
+  cfg.eval_every, cfg.eval_every_s = 0, 0.0
+  return cfg
 
 
 def _loss_nan_at_steps_1_and_4(params, data, key, step):
@@ -33,9 +35,9 @@ def _loss_nan_at_steps_1_and_4(params, data, key, step):
 def test_non_finite_loss_or_gradient_leaves_state_untouched():
   tx = optax.adam(0.1)
   params = {"w": jnp.zeros(3)}
-  state = loop.initial_state(params, tx, step=1)
+  state = train_step.initial_state(params, tx, step=1)
   before = jax.tree_util.tree_map(np.asarray, state)
-  step = loop.make_step(_loss_nan_at_steps_1_and_4, tx)
+  step = train_step.make_step(_loss_nan_at_steps_1_and_4, tx)
   after, loss, _ = step(state, jnp.ones(3), jax.random.PRNGKey(0))
   assert np.isnan(float(loss)) and int(after["skipped"]) == 1 and int(after["step"]) == 2
   for a, b in zip(jax.tree_util.tree_leaves(before["params"]) + jax.tree_util.tree_leaves(
@@ -43,13 +45,13 @@ def test_non_finite_loss_or_gradient_leaves_state_untouched():
                   jax.tree_util.tree_leaves(after["opt_state"])):
     np.testing.assert_array_equal(a, b)
   # A finite loss with an infinite gradient (sqrt at 0) is skipped as well.
-  grad_inf = loop.make_step(lambda p, d, k, s: (jnp.sqrt(jnp.sum(p["w"] * 0.0)), {}), tx)
-  state = loop.initial_state(params, tx)
+  grad_inf = train_step.make_step(lambda p, d, k, s: (jnp.sqrt(jnp.sum(p["w"] * 0.0)), {}), tx)
+  state = train_step.initial_state(params, tx)
   after, loss, _ = grad_inf(state, None, jax.random.PRNGKey(0))
   assert float(loss) == 0.0 and int(after["skipped"]) == 1
   # A finite step does update.
-  ok = loop.make_step(lambda p, d, k, s: (jnp.sum((p["w"] - 1) ** 2), {}), tx)
-  after, _, _ = ok(loop.initial_state(params, tx), None, jax.random.PRNGKey(0))
+  ok = train_step.make_step(lambda p, d, k, s: (jnp.sum((p["w"] - 1) ** 2), {}), tx)
+  after, _, _ = ok(train_step.initial_state(params, tx), None, jax.random.PRNGKey(0))
   assert int(after["skipped"]) == 0 and np.all(np.asarray(after["params"]["w"]) > 0)
 
 
@@ -177,3 +179,15 @@ def test_progress_bar_of_a_stage_resumed_past_its_budget():
   bar.set_postfix(psnr=20.0)
   assert bar.bar.n == bar.bar.total == 10.0
   bar.close()
+
+
+def test_a_saved_config_that_predates_a_field_reads_its_default(tmp_path):
+  saved = defaults.base_config().to_dict()
+  del saved["hi"]["model"]["compute_dtype"]  # a field added after the run
+  saved["hi"]["steps"] = 7
+  path = str(tmp_path / "config.json")
+  with open(path, "w") as f:
+    json.dump(saved, f)
+  read = checkpoint.read_config(path)
+  assert read.hi.steps == 7 and read.hi.model.compute_dtype == "float32"
+  assert read.lo.steps == defaults.base_config().lo.steps

@@ -42,7 +42,7 @@ def test_all_stages_then_hi_alone_reuses_earlier_states(config, scene_root, tmp_
   assert min(r["wall_s"] for r in log if r["stage"] == "hi") > max(
       r["wall_s"] for r in log if r["stage"] == "lo")
   # The orbit renderer reads the finished Hi stage (and its ray field).
-  res = subprocess.run([sys.executable, "-m", "halo_jax.render", f"--workdir={wd}", "--frames=2"],
+  res = subprocess.run([sys.executable, "-m", "halo_jax.cli.render", f"--workdir={wd}", "--frames=2"],
                        cwd=REPO, capture_output=True, text=True, timeout=300)
   assert res.returncode == 0, res.stderr[-3000:]
   frame = iio.imread(os.path.join(wd, "render", "hi_orbit_color_frame0.png"))
@@ -173,7 +173,7 @@ def test_transfer_from_lo_keeps_input_layer():
 @pytest.mark.slow
 def test_cli_runs_one_stage(scene_root, tmp_path):
   wd = str(tmp_path / "cli")
-  cmd = [sys.executable, "-m", "halo_jax.main", "--config=configs/default.py", f"--workdir={wd}",
+  cmd = [sys.executable, "-m", "halo_jax.cli.train", "--config=configs/default.py", f"--workdir={wd}",
          f"--config.data.root={scene_root}", "--config.stages=lo", "--config.lo.steps=3",
          "--config.lo.model.width=16", "--config.lo.model.depth=2", "--config.lo.batch_rays=64",
          "--config.lo.sampler.num_samples=8", "--config.data.factor=2",

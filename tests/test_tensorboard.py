@@ -4,11 +4,10 @@ import os
 import struct
 
 import jax.numpy as jnp
-import ml_collections
 import numpy as np
 import pytest
 
-from halo_jax import checkpoint
+from halo_jax import checkpoint, defaults
 from halo_jax.stages import loop
 
 tensorboardX = pytest.importorskip("tensorboardX")
@@ -35,9 +34,11 @@ def scalars(events):
 
 
 def _cfg(steps):
-  return ml_collections.ConfigDict(dict(
-      steps=steps, microbatches=1, lr_init=0.1, lr_final=0.01, max_seconds=0.0, log_every=1,
-      checkpoint_every=3, eval_every=2, eval_every_s=0.0, batch_rays=8))
+  cfg = defaults.base_config().lo  # a stage's config: every field the loop reads
+  cfg.update(steps=steps, microbatches=1, lr_init=0.1, lr_final=0.01, max_seconds=0.0,
+             log_every=1, checkpoint_every=3, eval_every=2, eval_every_s=0.0, batch_rays=8,
+             min_steps=0, max_nonfinite=0)
+  return cfg
 
 
 def _eval(params, step):

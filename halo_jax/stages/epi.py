@@ -22,7 +22,7 @@ import jax.numpy as jnp
 import numpy as np
 from halo_jax import (evaluate, geometry, lightfield, losses, metrics, models, parallel,
                       ray_fields, raycast, registry, render, rng, samplers)
-from halo_jax.stages import base, batches, loop, terms
+from halo_jax.stages import base, batches, loop, microbatch, terms
 from halo_jax.stages.radiance import joint_window
 from halo_jax.stages.state import StageState, stage_dir
 
@@ -149,11 +149,11 @@ def with_random_background(rgb, acc, keys):
 def loss_fn(params, data, key, step, part=None, *, model, ray_model, cfg, theta_n, theta_f,
             mesh=None):
   """L_rec plus the stage's active loss terms (terms.TERMS: the light-field
-  ones below) on the batch, or on its `part` (loop.part_of)."""
+  ones below) on the batch, or on its `part` (microbatch.part_of)."""
   k_idx, k_ren = jax.random.split(key)
   idx = batches.draw(k_idx, None, step, data["rgb"].shape[0], cfg.batch_rays, None, 0)
   keys = jax.random.split(k_ren, cfg.batch_rays)  # per ray: parts draw as the whole
-  idx, keys = loop.part_of(idx, part), loop.part_of(keys, part)
+  idx, keys = microbatch.part_of(idx, part), microbatch.part_of(keys, part)
   idx = parallel.shard_batch(idx, mesh)
   window = joint_window(cfg, step)
   out = render_rays(model, ray_model, cfg, params, data["uv"][idx], data["st"][idx], keys,
@@ -242,7 +242,7 @@ def _random_ray_consist(params, uv_box, key, step, part, *, model, ray_model, cf
   uv = jax.random.uniform(k_uv, (n, 2), minval=uv_box[0], maxval=uv_box[1])
   st = jax.random.uniform(k_st, (n, 2), minval=-1.0, maxval=1.0)
   keys = jax.random.split(k_ren, n)
-  uv, st, keys = (parallel.shard_batch(loop.part_of(x, part), mesh) for x in (uv, st, keys))
+  uv, st, keys = (parallel.shard_batch(microbatch.part_of(x, part), mesh) for x in (uv, st, keys))
   frozen = dict(params, nerf=jax.lax.stop_gradient(params["nerf"]))
   out = render_rays(model, ray_model, cfg, frozen, uv, st, keys, joint_window(cfg, step),
                     theta_n=theta_n, theta_f=theta_f, randomized=True)
@@ -281,9 +281,9 @@ def make_eval_fn(model, ray_model, cfg, theta_n, theta_f, block_rays=0):
 def train(ctx: base.StageContext):
   """Trains the light-field stage ctx.name; returns (StageState, info)."""
   config, name, dataset, cfg = ctx.config, ctx.name, ctx.dataset, ctx.cfg
-  loop.check_parts(cfg, cfg.batch_rays, f"{name}.batch_rays", ctx.mesh)
+  microbatch.check_parts(cfg, cfg.batch_rays, f"{name}.batch_rays", ctx.mesh)
   if cfg.sampler.kind == "joint" and cfg.joint.random_rays > 0:
-    loop.check_parts(cfg, cfg.joint.random_rays, f"{name}.joint.random_rays", ctx.mesh)
+    microbatch.check_parts(cfg, cfg.joint.random_rays, f"{name}.joint.random_rays", ctx.mesh)
   model, ray_model = models_from_config(config, name)
   theta_n, theta_f = dataset.near, dataset.far
   data = jax.device_put(training_rays(dataset.train))

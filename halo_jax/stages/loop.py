@@ -1,69 +1,18 @@
-"""The training loop every stage shares: jitted guarded steps, checkpoints, logs.
-
-A stage supplies a pure `loss_fn(params, data, key, step) -> (loss, aux)`; the
-loop owns the optimiser, the per-step PRNG key (`fold_in(seed, step)`, so a
-resumed run draws exactly what an uninterrupted one would), the time budget,
-held-out evaluations, checkpoints and `metrics.jsonl`.
+"""The host loop every stage shares: the time budget, held-out evaluations,
+checkpoints, snapshots for the front and the metrics log around the jitted
+step (stages/step.py).
 """
 import copy
-import json
 import os
 import time
 from typing import Callable, Optional
 
 import jax
-import jax.numpy as jnp
-import optax
 
 from halo_jax import checkpoint, parallel, tensorboard
 from halo_jax.stages import progress, snapshots
-
-
-class MetricsLog:
-  """Appends one JSON object a line to `<workdir>/metrics.jsonl`."""
-
-  def __init__(self, workdir: str):
-    os.makedirs(workdir, exist_ok=True)
-    self.path = os.path.join(workdir, "metrics.jsonl")
-
-  def write(self, **record):
-    if jax.process_index() != 0:  # multi-host: one log for the job
-      return
-    with open(self.path, "a") as f:
-      f.write(json.dumps(record) + "\n")
-
-  def drop_after(self, stage: str, step: int) -> None:
-    """Removes `stage`'s records past `step` (written by a run killed after its
-    last checkpoint), so a resumed run logs each step once. Atomic rewrite."""
-    if jax.process_index() != 0 or not os.path.exists(self.path):
-      return
-    with open(self.path) as f:
-      lines = f.readlines()
-    keep = []
-    for line in lines:
-      try:
-        rec = json.loads(line)
-      except json.JSONDecodeError:
-        continue  # a line cut short by the kill
-      if not (rec.get("stage") == stage and rec.get("step", 0) > step):
-        keep.append(json.dumps(rec) + "\n")
-    tmp = self.path + ".tmp"
-    with open(tmp, "w") as f:
-      f.writelines(keep)
-    os.replace(tmp, self.path)
-
-
-def schedule(cfg):
-  """NeRF's log-linear learning rate, step -> lr: from lr_init to lr_final over
-  `steps`, or by lr_final / lr_init every `lr_decay_steps` where that is set."""
-  span = cfg.get("lr_decay_steps", 0) or max(cfg.steps, 1)
-  return optax.exponential_decay(cfg.lr_init, transition_steps=span,
-                                 decay_rate=cfg.lr_final / cfg.lr_init)
-
-
-def optimizer(cfg) -> optax.GradientTransformation:
-  """Adam with `schedule(cfg)`."""
-  return optax.adam(schedule(cfg))
+from halo_jax.stages.metrics_log import MetricsLog
+from halo_jax.stages.step import NONFINITE_WHAT, initial_state, make_step, optimizer, schedule
 
 
 def minus_seconds(cfg, seconds):
@@ -75,108 +24,8 @@ def minus_seconds(cfg, seconds):
   return cfg
 
 
-# What a non-finite step went wrong in first, in the order a step computes them.
-NONFINITE_WHAT = ("loss", "gradient", "update", "parameter")
-
-
 class NonFiniteError(RuntimeError):
   """A stage's steps kept coming out non-finite; training cannot progress."""
-
-
-def _nonfinite_leaves(tree):
-  """[num_leaves] bool: which leaves of `tree` hold a non-finite entry."""
-  return jnp.stack([~jnp.all(jnp.isfinite(x)) for x in jax.tree_util.tree_leaves(tree)])
-
-
-def _diagnose(loss, grads, updates, params):
-  """(ok, info): ok when loss, gradients, update and new parameters are all
-  finite; info int32 [2] = (index into NONFINITE_WHAT of the first that is
-  not, the index of its first non-finite leaf), (-1, -1) when ok."""
-  bad = [~jnp.isfinite(loss)[None]] + [_nonfinite_leaves(t) for t in (grads, updates, params)]
-  any_bad = jnp.stack([b.any() for b in bad])
-  what = jnp.argmax(any_bad)
-  leaf = jnp.select([what == k for k in range(4)], [jnp.argmax(b) for b in bad])
-  ok = ~any_bad.any()
-  return ok, jnp.where(ok, jnp.array([-1, -1]), jnp.stack([what, leaf]).astype(jnp.int32))
-
-
-def part_of(x, part):
-  """Part i of `num` equal parts of x [B, ...] along its first axis (x itself
-  when part is None). part = (i, num), i may be traced; num divides B."""
-  if part is None:
-    return x
-  i, num = part
-  size = x.shape[0] // num
-  return jax.lax.dynamic_slice_in_dim(x, i * size, size)
-
-
-def check_parts(cfg, batch: int, what: str, mesh=None) -> None:
-  """Raises unless cfg.microbatches splits `batch` (and each part splits over
-  the data-parallel mesh)."""
-  parts = cfg.microbatches
-  if parts < 1 or batch % parts:
-    raise ValueError(f"microbatches={parts} does not divide {what}={batch}")
-  parallel.check_batch(mesh, batch // parts,
-                       what if parts == 1 else f"{what}/microbatches")
-
-
-def loss_and_grads(loss_fn: Callable, params, data, key, step, parts: int = 1):
-  """((loss, aux), grads) of `loss_fn` on a step's batch, run in `parts` parts.
-
-  Every loss here is a mean over rays of equal-size parts, so the mean of the
-  parts' losses and gradients is the whole batch's; each part runs its forward
-  and backward pass before the next starts, which keeps its activations in
-  cache. aux entries are means over the parts.
-  """
-  value_and_grad = jax.value_and_grad(loss_fn, has_aux=True)
-  if parts == 1:
-    return value_and_grad(params, data, key, step)
-
-  def add_part(total, i):
-    out = value_and_grad(params, data, key, step, part=(i, parts))
-    return jax.tree_util.tree_map(jnp.add, total, out), None
-
-  shapes = jax.eval_shape(lambda: value_and_grad(params, data, key, step, part=(0, parts)))
-  zeros = jax.tree_util.tree_map(lambda s: jnp.zeros(s.shape, s.dtype), shapes)
-  total, _ = jax.lax.scan(add_part, zeros, jnp.arange(parts))
-  return jax.tree_util.tree_map(lambda x: x / parts, total)
-
-
-def make_step(loss_fn: Callable, tx: optax.GradientTransformation, parts: int = 1):
-  """One jitted training step with a guard against non-finite values.
-
-  A step whose loss, gradients, update or new parameters are not all finite
-  leaves params and optimiser state untouched (and is counted in `skipped`);
-  the step counter still advances so the next step draws fresh randomness.
-  `streak` counts such steps in a row and `first_bad` records (step, what,
-  leaf) of the streak's first step (what: NONFINITE_WHAT), so the loop can
-  stop a stage that cannot progress and say why. `parts`: see loss_and_grads.
-  """
-  def step(train, data, base_key):
-    key = jax.random.fold_in(base_key, train["step"])
-    (loss, aux), grads = loss_and_grads(loss_fn, train["params"], data, key, train["step"],
-                                        parts)
-    updates, opt_state = tx.update(grads, train["opt_state"], train["params"])
-    params = optax.apply_updates(train["params"], updates)
-    ok, info = _diagnose(loss, grads, updates, params)
-    keep = lambda new, old: jax.tree_util.tree_map(lambda a, b: jnp.where(ok, a, b), new, old)
-    this = jnp.concatenate([train["step"][None], info])
-    first = jnp.where(ok | (train["streak"] > 0), train["first_bad"], this)
-    train = dict(params=keep(params, train["params"]),
-                 opt_state=keep(opt_state, train["opt_state"]),
-                 step=train["step"] + 1,
-                 skipped=train["skipped"] + (1 - ok.astype(jnp.int32)),
-                 streak=jnp.where(ok, 0, train["streak"] + 1),
-                 first_bad=first)
-    return train, loss, aux
-  return jax.jit(step, donate_argnums=(0,))
-
-
-def initial_state(params, tx, step: int = 0):
-  """A fresh training state: params, optimiser state, step, skipped steps,
-  the current run of non-finite steps and its first (step, what, leaf)."""
-  return dict(params=params, opt_state=tx.init(params), step=jnp.int32(step),
-              skipped=jnp.int32(0), streak=jnp.int32(0), first_bad=jnp.full((3,), -1, jnp.int32))
 
 
 def _start(name, workdir, params, tx, mesh, log):
@@ -246,7 +95,7 @@ class _Run:
   def check_progress(self, step):
     """NonFiniteError once `max_nonfinite` steps in a row were non-finite."""
     streak = int(self.state["streak"])
-    if streak < self.cfg.get("max_nonfinite", 0) or not self.cfg.get("max_nonfinite", 0):
+    if not self.cfg.max_nonfinite or streak < self.cfg.max_nonfinite:
       return
     first_step, what, leaf = (int(x) for x in jax.device_get(self.state["first_bad"]))
     name = NONFINITE_WHAT[what]
@@ -363,7 +212,7 @@ def train(name: str, cfg, workdir: str, params, loss_fn: Callable, data, seed: i
   info = {"wall_s": run.wall_s, "skipped": int(run.state["skipped"]), "compile_s": compile_s,
           # the time cap was reached before the floor of steps: trained past it
           "past_time_cap": bool(cfg.max_seconds and run.wall_s > cfg.max_seconds
-                                and start < step <= cfg.get("min_steps", 0))}
+                                and start < step <= cfg.min_steps)}
   return parallel.to_local(run.state["params"]), step, info
 
 
@@ -372,7 +221,7 @@ def _loop(run, step_fn, data, base_key, bar, start, cfg):
   step, in_flight = start, None  # in_flight: the loss of the step before the current one
   # The time cap stops a stage only after its floor of steps (min_steps), so
   # that no stage of a method is left untrained on a slow machine.
-  floor = min(cfg.get("min_steps", 0), cfg.steps)
+  floor = min(cfg.min_steps, cfg.steps)
   for step in range(start + 1, progress.last_step(cfg) + 1):
     if cfg.max_seconds and run.wall_s >= cfg.max_seconds and step > floor:
       step -= 1

@@ -4,7 +4,7 @@ import tqdm
 
 def last_step(cfg) -> int:
   """The step a stage's loop ends at: `steps`, or `stop_at_step` when set and sooner."""
-  return min(cfg.steps, cfg.get("stop_at_step", 0) or cfg.steps)
+  return min(cfg.steps, cfg.stop_at_step or cfg.steps)
 
 
 class ProgressBar:

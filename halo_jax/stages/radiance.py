@@ -15,7 +15,7 @@ import numpy as np
 
 from halo_jax import evaluate, geometry, lightfield, models, parallel, ray_fields, raycast
 from halo_jax import registry, samplers
-from halo_jax.stages import base, batches, loop, terms
+from halo_jax.stages import base, batches, loop, microbatch, terms
 from halo_jax.stages.state import StageState, stage_dir
 from halo_jax.stages.transfer import transfer_from_lo
 
@@ -41,7 +41,7 @@ def requires(config, name):
 def check(config, name, dspec):
   """ConfigError for a model, sampler or term the scene kind cannot take."""
   cfg = config[name]
-  kind = cfg.model.get("kind", "nerf")
+  kind = cfg.model.kind
   mspec = models.MODELS.get(kind, f"{name}.model.kind")
   where = f"data.kind={config.data.kind!r} ({dspec.geometry.value} rays"
   where += ", frames with times)" if dspec.dynamic else ")"
@@ -66,7 +66,7 @@ def init_params(config, name, dataset):
   the ray field a joint sampler trains]}."""
   cfg = config[name]
   model = models.nerf_from_config(config, name)
-  kind = cfg.model.get("kind", "nerf")
+  kind = cfg.model.kind
   params = {"nerf": models.init_nerf(model, kind, config.seed)}
   spec = _sampler(cfg)
   if cfg.sampler.get("coarse_model", False):
@@ -105,14 +105,14 @@ def band_fraction(cfg, step):
 
 def loss_fn(params, data, key, step, part=None, *, s):
   """The stage's loss on one batch drawn on device (split over `s.mesh`'s
-  devices when data-parallel), or on its `part` (loop.part_of: every ray
+  devices when data-parallel), or on its `part` (microbatch.part_of: every ray
   keeps its own PRNG key). s: the stage's static settings (`loss_settings`)."""
   cfg = s["cfg"]
   k_idx, k_crop, k_ren, k_extra, k_extra_s = jax.random.split(key, 5)
   idx = batches.draw(k_idx, k_crop, step, data["origins"].shape[0], cfg.batch_rays,
-                     data["index"], cfg.precrop_steps, cfg.get("one_image", False))
-  keys = loop.part_of(jax.random.split(k_ren, cfg.batch_rays), part)
-  idx = parallel.shard_batch(loop.part_of(idx, part), s["mesh"])
+                     data["index"], cfg.precrop_steps, cfg.one_image)
+  keys = microbatch.part_of(jax.random.split(k_ren, cfg.batch_rays), part)
+  idx = parallel.shard_batch(microbatch.part_of(idx, part), s["mesh"])
   batch = {"origins": data["origins"][idx], "dirs": data["dirs"][idx], "rgb": data["rgb"][idx],
            "times": data["times"][idx] if "times" in data else None, "idx": idx}
   guide, window = _guide_at(s, params, data, step)
@@ -203,11 +203,11 @@ def train(ctx: base.StageContext):
   config, name, ds = ctx.config, ctx.name, ctx.dataset
   cfg = ctx.cfg
   active = terms.active_terms(cfg)
-  loop.check_parts(cfg, cfg.batch_rays, f"{name}.batch_rays", ctx.mesh)
+  microbatch.check_parts(cfg, cfg.batch_rays, f"{name}.batch_rays", ctx.mesh)
   if any(n == "empty" for n, _ in active):
-    loop.check_parts(cfg, cfg.empty.num_rays, f"{name}.empty.num_rays", ctx.mesh)
+    microbatch.check_parts(cfg, cfg.empty.num_rays, f"{name}.empty.num_rays", ctx.mesh)
   if any(n == "unseen" for n, _ in active):
-    loop.check_parts(cfg, cfg.unseen.num_points, f"{name}.unseen.num_points", ctx.mesh)
+    microbatch.check_parts(cfg, cfg.unseen.num_points, f"{name}.unseen.num_points", ctx.mesh)
   model = models.nerf_from_config(config, name)
   params = _initial_params(ctx)
   t0 = time.perf_counter()

@@ -8,7 +8,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from halo_jax import geometry, losses, parallel, ray_fields, raycast, registry, rng
-from halo_jax.stages import base, lo_targets, loop
+from halo_jax.stages import base, lo_targets, loop, microbatch
 from halo_jax.stages.state import StageState
 
 TEACHER = "lo"  # the stage whose depth and opacity the ray field learns
@@ -37,12 +37,12 @@ def init_params(config, name, dataset):
 def loss_fn(params, data, key, step, part=None, *, model, guide_geometry, radius, far, n_train,
             n_random, mesh=None):
   """L_ray on a batch of training rays and random hemisphere rays (or on the
-  batch's `part`, loop.part_of: each source is cut alike)."""
+  batch's `part`, microbatch.part_of: each source is cut alike)."""
   k_t, k_r = jax.random.split(key)
   sources = []
   for k, src, n in ((k_t, data["train"], n_train), (k_r, data.get("random"), n_random)):
     if n:
-      i = loop.part_of(jax.random.randint(k, (n,), 0, src["origins"].shape[0]), part)
+      i = microbatch.part_of(jax.random.randint(k, (n,), 0, src["origins"].shape[0]), part)
       sources.append({f: v[i] for f, v in src.items()})
   batch = {f: parallel.shard_batch(jnp.concatenate([p[f] for p in sources]), mesh)
            for f in sources[0]}
@@ -91,8 +91,8 @@ def train(ctx: base.StageContext):
   model = ray_fields.ray_field_from_config(cfg, ds.near, ds.far)
   lo_samples = cfg.lo_samples or ctx.states[TEACHER].config.lo.sampler.num_samples
   n_random = int(round(cfg.batch_rays * cfg.random_fraction)) if cfg.bank_rays else 0
-  loop.check_parts(cfg, cfg.batch_rays - n_random, f"{name}.batch_rays (training rays)", ctx.mesh)
-  loop.check_parts(cfg, n_random, f"{name}.batch_rays (random rays)", ctx.mesh)
+  microbatch.check_parts(cfg, cfg.batch_rays - n_random, f"{name}.batch_rays (training rays)", ctx.mesh)
+  microbatch.check_parts(cfg, n_random, f"{name}.batch_rays (random rays)", ctx.mesh)
   t0 = time.perf_counter()
   data = _targets(ctx, lo_samples, n_random, radius)
   target_s = time.perf_counter() - t0

@@ -16,7 +16,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from halo_jax import geometry, losses, metrics, parallel, raycast, registry, rng, samplers
-from halo_jax.stages import lo_targets, loop
+from halo_jax.stages import lo_targets, microbatch
 
 
 class Inputs(NamedTuple):
@@ -123,8 +123,8 @@ def _empty_value(x: Inputs, cfg):
   e, bank = cfg.empty, x.data["empty"]
   k_pick, k_samples = x.keys
   j = bank["idx"][jax.random.randint(k_pick, (e.num_rays,), 0, bank["idx"].shape[0])]
-  keys = loop.part_of(jax.random.split(k_samples, e.num_rays), x.part)
-  j = parallel.shard_batch(loop.part_of(j, x.part), x.mesh)
+  keys = microbatch.part_of(jax.random.split(k_samples, e.num_rays), x.part)
+  j = parallel.shard_batch(microbatch.part_of(j, x.part), x.mesh)
   times = bank["times"][j] if "times" in bank else None
   t = samplers.stratified(keys, jnp.full(j.shape, x.near), x.far, e.num_samples)
   acc = raycast.composite(x.model, x.params["nerf"], bank["origins"][j], bank["dirs"][j], t,

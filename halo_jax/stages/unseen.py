@@ -18,7 +18,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from halo_jax import camera, geometry, losses, parallel, rng, visibility
-from halo_jax.stages import loop, terms
+from halo_jax.stages import microbatch, terms
 
 
 def _prepare(s: terms.Setup):
@@ -51,7 +51,7 @@ def _value(x: terms.Inputs, cfg):
   # a key of its own, apart from L_empty's draws from the same step keys
   j = jax.random.randint(jax.random.fold_in(k_pick, 5), (u.num_points,), 0,
                          bank["points"].shape[0])
-  j = parallel.shard_batch(loop.part_of(j, x.part), x.mesh)
+  j = parallel.shard_batch(microbatch.part_of(j, x.part), x.mesh)
   extra = {"times": bank["times"][j]} if "times" in bank else {}
   sigma, _ = x.model.apply({"params": x.params["nerf"]}, bank["points"][j], bank["dirs"][j],
                            None, 0.0, **extra)

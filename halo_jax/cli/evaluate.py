@@ -1,6 +1,6 @@
 """Scores a finished stage on a split of its scene, without retraining.
 
-  python -m halo_jax.evaluate --workdir=DIR [--stage=hi] [--split=test] [--views=all]
+  python -m halo_jax.cli.evaluate --workdir=DIR [--stage=hi] [--split=test] [--views=all]
 
 Restores the stage (default: the run's output stage), renders the split's
 views (for 'test', the views the run was evaluated on unless --views says
@@ -27,7 +27,7 @@ FLAGS = flags.FLAGS
 def define_flags():
   """The command's flags (defined on launch, not on import, so that both
   commands' functions can be imported together)."""
-  flags.DEFINE_string("workdir", None, "A run folder written by halo_jax.main.")
+  flags.DEFINE_string("workdir", None, "A run folder written by halo-train.")
   flags.DEFINE_string("stage", None, "Stage to score (default: the run's output stage).")
   flags.DEFINE_string("split", "test", "'test', 'train', or another split of the scene "
                       "(e.g. 'val' for D-NeRF).")

@@ -1,6 +1,6 @@
 """Launches HALO's stages.
 
-  python -m halo_jax.main --config=configs/blender.py:lego_8view \
+  python -m halo_jax.cli.train --config=configs/blender.py:lego_8view \
       --workdir=DIR --config.data.root=PATH [--config.stages=lo,ray,hi]
 
 This file is kept short: the logic lives in `halo_jax.pipeline`.

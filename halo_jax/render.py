@@ -1,7 +1,6 @@
 """Volume rendering along rays (NeRF eq. 1), stable for stiff densities.
 
-`python -m halo_jax.render` renders a finished run along a camera path (colour,
-depth and opacity videos); see `halo_jax/render/__main__.py`.
+The render command (videos along a camera path) is `halo_jax/cli/render.py`.
 """
 
 import jax.numpy as jnp

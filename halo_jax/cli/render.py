@@ -1,6 +1,6 @@
 """Renders a finished stage along a camera path: colour, depth and opacity videos.
 
-  python -m halo_jax.render --workdir=DIR [--stage=hi] [--path=KIND|FILE] [--frames=60]
+  python -m halo_jax.cli.render --workdir=DIR [--stage=hi] [--path=KIND|FILE] [--frames=60]
 
 Paths (halo_jax/camera_paths.py): an orbit for 360-degree scenes, a spiral for
 forward-facing ones, a (u, v) ellipse for light fields, a time sweep at a fixed
@@ -25,7 +25,7 @@ FLAGS = flags.FLAGS
 def define_flags():
   """The command's flags (defined on launch, not on import, so that both
   commands' functions can be imported together)."""
-  flags.DEFINE_string("workdir", None, "A run folder written by halo_jax.main.")
+  flags.DEFINE_string("workdir", None, "A run folder written by halo-train.")
   flags.DEFINE_string("stage", None, "Stage to render (default: the run's output stage).")
   flags.DEFINE_string("path", None, "A path kind (orbit, orbit_time, time, spiral, uv) or a "
                       ".npy / .json file of cameras (default: the scene kind's first).")
