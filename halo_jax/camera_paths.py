@@ -113,7 +113,7 @@ def _read_file(path, geometry):
   return c2w.astype(np.float32), times
 
 
-def views_for(path: str, dataset, n: int, bounds=None, downscale: int = 1):
+def views_for(path: str, dataset, n: int, downscale: int = 1):
   """The Views of path `path` (a kind from `kinds` or a file) for `dataset`, at
   the test views' size divided by `downscale` (the field of view kept)."""
   geo, test = dataset.geometry, dataset.test
@@ -135,7 +135,7 @@ def views_for(path: str, dataset, n: int, bounds=None, downscale: int = 1):
   elif path == "time":
     c2w, times = np.repeat(test.c2w[:1], n, 0), ramp
   elif path == "spiral":
-    c2w = spiral(dataset.train.c2w, bounds, n)
+    c2w = spiral(dataset.train.c2w, dataset.depth_bounds, n)
   else:
     c2w, times = _read_file(path, geo)
   if dataset.dynamic and times is None:  # a static path through a dynamic scene: t = 0

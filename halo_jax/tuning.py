@@ -18,8 +18,6 @@ from typing import List, Tuple
 import numpy as np
 
 from halo_jax import frequency, view_pairs
-from halo_jax.datasets import llff
-from halo_jax.geometry import Geometry
 from halo_jax.stages import base
 from halo_jax.stages.state import load
 
@@ -50,11 +48,8 @@ def criterion_of(render, dataset, config) -> dict:
   {'criterion' (the form config.tune.warp selects), 'criterion_plain',
   'criterion_warped', 'per_pair', 'shift_px', 'steps', 'pair_kind'}."""
   t = config.tune
-  bounds = None
-  if dataset.geometry == Geometry.NDC:
-    bounds = llff.read_poses(config.data.root)[3]
   pairs = view_pairs.make(render, dataset, t.num_pairs, t.size, t.shift_px, t.seed,
-                          config.eval.chunk, bounds)
+                          config.eval.chunk)
   rho = lambda b: [float(frequency.relative_spectrum_difference(
       pairs["a"][i:i + 1], b[i:i + 1], t.mask_fraction)) for i in range(len(b))]
   plain, warped = rho(pairs["b"]), rho(pairs["b_warped"])

@@ -51,7 +51,7 @@ def criterion_size(height: int, width: int, size: int):
 class PairKind:
   """How one scene kind makes pairs.
 
-  base(dataset, num, size, rng, bounds) -> Views at the criterion size
+  base(dataset, num, size, rng) -> Views at the criterion size
   move(views, steps [N]) -> the same Views moved by `steps` (kind's units)
   flow(views_a, views_b, render_a, dataset) -> [N, h, w, 2] where each pixel
     of a (its surface, by a's depth) lands in b, in b's pixel coordinates
@@ -156,8 +156,7 @@ def _sized(views, size):
   return h, w, float(getattr(views, "focal", 0.0)) * w / views.width
 
 
-def _orbit_base(dataset, num, size, rng, bounds=None):
-  del bounds
+def _orbit_base(dataset, num, size, rng):
   pos = np.asarray(dataset.train.c2w)[:, :3, 3].astype(np.float64)
   dist = np.linalg.norm(pos, axis=-1)
   elev = np.degrees(np.arcsin(np.clip(pos[:, 2] / dist, -1, 1)))
@@ -196,9 +195,10 @@ class _SpiralViews(NDCViews):
   bounds: np.ndarray = None
 
 
-def _spiral_base(dataset, num, size, rng, bounds=None):
+def _spiral_base(dataset, num, size, rng):
+  bounds = dataset.depth_bounds
   if bounds is None:
-    raise ValueError("spiral pairs need the scene's depth bounds (llff.read_poses)")
+    raise ValueError("spiral pairs need the scene's depth bounds (Dataset.depth_bounds)")
   phases = rng.uniform(0.0, 4 * np.pi, num)          # two turns, as the spiral video
   train_c2w = np.asarray(dataset.train.c2w)
   h, w, focal = _sized(dataset.train, size)
@@ -219,8 +219,7 @@ PAIR_KINDS.register("spiral", PairKind(_spiral_base, _spiral_move, _flow_3d(True
 # ---------------------------------------------------------------- light fields
 
 
-def _uv_base(dataset, num, size, rng, bounds=None):
-  del bounds
+def _uv_base(dataset, num, size, rng):
   uv = np.asarray(dataset.train.uv, np.float64)
   pts = rng.uniform(uv.min(0), uv.max(0), (num, 2))
   h, w, _ = _sized(dataset.train, size)
@@ -276,8 +275,7 @@ def warp_onto(rgb_a, rgb_b, landed, acc_a):
   return np.where(surface, np.where(inside[..., None], sample, rgb_a), rgb_b).astype(np.float32)
 
 
-def make(render, dataset, num: int, size: int, shift_px: float, seed: int, chunk: int,
-         bounds=None) -> dict:
+def make(render, dataset, num: int, size: int, shift_px: float, seed: int, chunk: int) -> dict:
   """Renders `num` pairs whose median surface displacement is `shift_px`.
 
   Args:
@@ -285,7 +283,6 @@ def make(render, dataset, num: int, size: int, shift_px: float, seed: int, chunk
     dataset: the scene (its training views place the pairs).
     num, size, shift_px, seed: pairs, criterion short side, displacement, rng.
     chunk: rays per rendering call.
-    bounds: [N, 2] depth bounds (forward-facing scenes only).
 
   Returns:
     {'a', 'b': [num, h, w, 3] renders; 'b_warped': b resampled onto a by a's
@@ -295,7 +292,7 @@ def make(render, dataset, num: int, size: int, shift_px: float, seed: int, chunk
   name = kind_name(dataset.geometry, dataset.dynamic)
   kind = PAIR_KINDS.get(name)
   rng = np.random.default_rng(seed)
-  base = kind.base(dataset, num, size, rng, bounds)
+  base = kind.base(dataset, num, size, rng)
   ra = evaluate.render_views(render, base, chunk)
   probe = kind.move(base, np.full(num, kind.probe))
   shift = lambda moved: median_shift(base, kind.flow(base, moved, ra, dataset), ra)

@@ -65,8 +65,8 @@ def test_spiral_starts_at_its_radius_and_stays_orthonormal():
   assert np.all(poses[:, 2, 2] > 0.9)  # still looking down -z, as the cameras do
   ds = Dataset(NDCViews(np.zeros((6, 8, 10, 3), np.float32), c2w, 12.0, tuple("abcdef")),
                NDCViews(np.zeros((6, 8, 10, 3), np.float32), c2w, 12.0, tuple("abcdef")),
-               0.0, 1.0, 0.0, False, Geometry.NDC)
-  views = camera_paths.views_for("spiral", ds, 8, bounds)
+               0.0, 1.0, 0.0, False, Geometry.NDC, depth_bounds=bounds)
+  views = camera_paths.views_for("spiral", ds, 8)
   assert isinstance(views, NDCViews) and views.rays()[0].shape == (8, 8, 10, 3)
 
 

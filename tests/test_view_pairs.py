@@ -93,8 +93,8 @@ def test_spiral_pairs_reach_the_pixel_baseline():
   c2w = np.repeat(np.eye(4, dtype=np.float32)[None], n, 0)
   c2w[:, :3, 3] = rng.normal(0, 0.5, (n, 3))
   train = NDCViews(np.zeros((n, 30, 40, 3), np.float32), c2w, 35.0, tuple(map(str, range(n))))
-  ds = Dataset(train, train, 0.0, 1.0, 0.0, False, Geometry.NDC)
-  bounds = np.tile([[2.0, 8.0]], (n, 1))
+  ds = Dataset(train, train, 0.0, 1.0, 0.0, False, Geometry.NDC,
+               depth_bounds=np.tile([[2.0, 8.0]], (n, 1)))
 
   def render(o, d, t=None):
     """A fronto-parallel wall at world z = -4, in NDC depth (camera near z = 0):
@@ -105,8 +105,7 @@ def test_spiral_pairs_reach_the_pixel_baseline():
     return {"rgb": np.zeros((*shape, 3), np.float32), "depth": t_ndc.astype(np.float32),
             "acc": np.ones(shape, np.float32)}
 
-  out = view_pairs.make(render, ds, num=4, size=24, shift_px=1.0, seed=0, chunk=4096,
-                        bounds=bounds)
+  out = view_pairs.make(render, ds, num=4, size=24, shift_px=1.0, seed=0, chunk=4096)
   assert out["kind"] == "spiral" and out["a"].shape == (4, 24, 32, 3)
   np.testing.assert_allclose(out["shift_px"], 1.0, rtol=0.1)
 

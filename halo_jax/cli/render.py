@@ -16,8 +16,6 @@ import imageio.v3 as iio
 import numpy as np
 
 from halo_jax import camera_paths, evaluate, restore, user_errors, video
-from halo_jax.datasets import llff
-from halo_jax.geometry import Geometry
 
 FLAGS = flags.FLAGS
 
@@ -43,8 +41,7 @@ def render_path(workdir, stage=None, path=None, frames=60, fps=20.0, out=None,
   run = restore.load(workdir, stage, data_root)
   ds = run.dataset
   path = path or camera_paths.kinds(ds.geometry, ds.dynamic)[0]
-  bounds = llff.read_poses(run.config.data.root)[3] if ds.geometry == Geometry.NDC else None
-  views = camera_paths.views_for(path, ds, frames, bounds, downscale)
+  views = camera_paths.views_for(path, ds, frames, downscale)
   r = evaluate.render_views(run.render, views, run.config.eval.chunk)
   out = out or os.path.join(workdir, "render")
   label = os.path.splitext(os.path.basename(path))[0]

@@ -62,7 +62,8 @@ def _load_llff(cfg, workdir="") -> Dataset:
   names = llff.split_names(root, cfg.factor)
   train = llff.load_views(root, cfg.factor, _names(cfg.train_views, names) or names)
   test = llff.load_views(root, cfg.factor, _names(cfg.test_views, names) or names)
-  return Dataset(train, test, 0.0, 1.0, 0.0, bool(cfg.white_background), Geometry.NDC)
+  return Dataset(train, test, 0.0, 1.0, 0.0, bool(cfg.white_background), Geometry.NDC,
+                 depth_bounds=llff.read_poses(root)[3])
 
 
 def _blender_split_names(root, split):

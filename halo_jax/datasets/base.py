@@ -63,6 +63,9 @@ class Dataset:
       the origin), the sphere on which the ray field enters rays; else 0.
     white_background: images were composited onto white.
     geometry: what a ray is (halo_jax.geometry.Geometry).
+    depth_bounds: NDC: [N, 2] near / far scene depth of every camera of the
+      scene (LLFF's poses_bounds, scaled as the poses are), which place its
+      spiral paths; else None.
   """
   train: Views
   test: Views
@@ -71,6 +74,7 @@ class Dataset:
   radius: float
   white_background: bool = True
   geometry: Geometry = Geometry.SPHERE
+  depth_bounds: Optional[np.ndarray] = None
 
   @property
   def dynamic(self) -> bool:
