@@ -9,6 +9,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from halo_jax import encoding
+from halo_jax.geometry import Geometry
 from halo_jax.models import MLP, _rows
 
 
@@ -97,6 +98,15 @@ def epi_ray_field_from_config(joint_cfg):
                      seed=joint_cfg.seed, width=m.width, depth=m.depth, skips=tuple(m.skips),
                      uv_std=joint_cfg.get("uv_std", 0.0),
                      color=joint_cfg.get("color_weight", 0.0) > 0)
+
+
+def guide_radius(ray_cfg, dataset) -> float:
+  """The sphere on which a ray field enters rays, and from which random rays
+  are cast: `ray.radius`, else the training cameras' mean distance from the
+  origin (dataset.radius); 0 where rays are not spatial-spherical."""
+  if dataset.geometry != Geometry.SPHERE:
+    return 0.0
+  return float(ray_cfg.radius or dataset.radius)
 
 
 def ray_field_from_config(cfg, near, far):

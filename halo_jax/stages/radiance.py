@@ -149,7 +149,7 @@ def _guide_setup(ctx: base.StageContext):
     return None, None, 0.0
   ray_cfg = ctx.config.ray if spec.trains_guide else ctx.states["ray"].config.ray
   model = ray_fields.ray_field_from_config(ray_cfg, ds.near, ds.far)
-  radius = (ray_cfg.radius or ds.radius) if ds.geometry == geometry.Geometry.SPHERE else 0.0
+  radius = ray_fields.guide_radius(ray_cfg, ds)
   frozen = None if spec.trains_guide else ctx.states["ray"].params["ray"]
   return model, frozen, radius
 

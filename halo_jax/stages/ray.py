@@ -86,8 +86,7 @@ def train(ctx: base.StageContext):
   """
   config, name, ds = ctx.config, ctx.name, ctx.dataset
   cfg = ctx.cfg
-  sphere = ds.geometry == geometry.Geometry.SPHERE
-  radius = (cfg.radius or ds.radius) if sphere else 0.0
+  radius = ray_fields.guide_radius(cfg, ds)
   model = ray_fields.ray_field_from_config(cfg, ds.near, ds.far)
   lo_samples = cfg.lo_samples or ctx.states[TEACHER].config.lo.sampler.num_samples
   n_random = int(round(cfg.batch_rays * cfg.random_fraction)) if cfg.bank_rays else 0

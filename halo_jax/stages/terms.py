@@ -15,7 +15,8 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from halo_jax import geometry, losses, metrics, parallel, raycast, registry, rng, samplers
+from halo_jax import (geometry, losses, metrics, parallel, ray_fields, raycast, registry, rng,
+                      samplers)
 from halo_jax.stages import lo_targets, microbatch
 
 
@@ -107,7 +108,8 @@ TERMS.register("consist", Term(
 def _empty_prepare(s: Setup):
   e, ds = s.cfg.empty, s.dataset
   bank = lo_targets.random_ray_bank(
-      s.states["lo"], e.bank_rays, ds.radius, ds.train.focal / ds.train.width, ds.near, ds.far,
+      s.states["lo"], e.bank_rays, ray_fields.guide_radius(s.config.ray, ds),
+      ds.train.focal / ds.train.width, ds.near, ds.far,
       ds.white_background, e.num_samples, rng.stream_seed(s.config.seed, rng.Stream.EMPTY_BANK),
       chunk=s.config.eval.chunk,
       block_rays=s.config.eval.block_rays)

@@ -17,7 +17,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from halo_jax import camera, geometry, losses, parallel, rng, visibility
+from halo_jax import camera, geometry, losses, parallel, ray_fields, rng, visibility
 from halo_jax.stages import microbatch, terms
 
 
@@ -28,7 +28,8 @@ def _prepare(s: terms.Setup):
   u, ds = s.cfg.unseen, s.dataset
   seed = rng.stream_seed(s.config.seed, rng.Stream.UNSEEN_BANK)
   k_rays, k_t, k_time = jax.random.split(jax.random.PRNGKey(seed), 3)
-  o, d = camera.random_hemisphere_rays(k_rays, u.bank_points, ds.radius,
+  o, d = camera.random_hemisphere_rays(k_rays, u.bank_points,
+                                       ray_fields.guide_radius(s.config.ray, ds),
                                        ds.train.focal / ds.train.width)
   t = jax.random.uniform(k_t, (u.bank_points, 1), minval=ds.near, maxval=ds.far)
   points = o + t * d
