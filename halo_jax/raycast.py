@@ -42,15 +42,14 @@ def ray_field_depth(guide: Guide, origins, dirs):
   return t_entry + depth, acc
 
 
-def sample_edges(sampler_cfg, key, shape, near, far, guide_depth=None, randomized=True,
-                 window=None):
-  """Interval edges [*shape, N + 1] for the first (or only) pass of a sampler.
+def ray_edges(sampler_cfg, key, near, far, guide_depth=None, randomized=True, window=None):
+  """Interval edges [N + 1] of one ray for the first (or only) pass of a sampler.
 
-  window: the guided samplers' half window (a fraction of far - near; may be
-  traced); None uses sampler_cfg.window.
+  key: one PRNG key; near, far: scalars; guide_depth: the ray field's depth
+  on this ray (guided samplers); window: the guided samplers' half window (a
+  fraction of far - near; may be traced), None for sampler_cfg.window.
   """
   spec = samplers.SAMPLERS.get(sampler_cfg.kind, "sampler.kind")
-  near = jnp.full(shape, near, jnp.float32)
   if spec.guided:
     window = sampler_cfg.window if window is None else window
     return samplers.depth_guided(key, guide_depth, near, far, sampler_cfg.num_samples, window,
@@ -59,30 +58,55 @@ def sample_edges(sampler_cfg, key, shape, near, far, guide_depth=None, randomize
   return samplers.stratified(key, near, far, n, randomized)
 
 
+def ray_points(origin, direction, t_edges):
+  """The midpoints of one ray's intervals: origin, direction [3], t_edges
+  [N + 1] -> points [N, 3] and their view directions [N, 3]."""
+  t_mid = render.interval_midpoints(t_edges)
+  points = origin + t_mid[:, None] * direction
+  return points, jnp.broadcast_to(direction, points.shape)
+
+
 def composite(model, params, origins, dirs, t_edges, white_background, key=None, noise=0.0,
               times=None, band_fraction=None):
-  """Queries the NeRF at interval midpoints and composites. Returns render's
-  dict plus 'sigma' [..., N], the densities.
+  """Queries the NeRF at every ray's interval midpoints and composites each
+  ray. Returns render.volume_render's dict [R, ...] plus 'sigma' [R, N].
 
-  times: [..., 1] per-ray time for a dynamic field (None for a static one).
+  origins, dirs [R, 3]; t_edges [R, N + 1]. The field runs once on all R x N
+  points (its layers on rows are its fast form); placing the points and
+  compositing are written for one ray and mapped over the rays.
+  key: per-ray keys [R, 2] for density noise, or None.
+  times: [R, 1] per-ray time for a dynamic field (None for a static one).
   band_fraction: FreeNeRF's P.E. mask position (models.band_weights), or None.
   """
-  t_mid = render.interval_midpoints(t_edges)
-  pts = origins[..., None, :] + t_mid[..., None] * dirs[..., None, :]
-  vdirs = jnp.broadcast_to(dirs[..., None, :], pts.shape)
+  pts, vdirs = jax.vmap(ray_points)(origins, dirs, t_edges)
   extra = {} if band_fraction is None else {"band_fraction": band_fraction}
   if times is not None:
     extra["times"] = times[..., None, :]
   sigma, rgb = model.apply({"params": params}, pts, vdirs, key, noise, **extra)
-  out = render.volume_render(sigma, rgb, t_edges, white_background)
+  out = jax.vmap(render.volume_render, in_axes=(0, 0, 0, None))(sigma, rgb, t_edges,
+                                                                  white_background)
   out["sigma"] = sigma
   return out
+
+
+def per_ray_keys(key, num_rays: int, randomized: bool, noise: float):
+  """Per-ray keys [R, 2]: `key` itself when it is per ray; else one key for a
+  batch that draws nothing (no jitter, no density noise), repeated."""
+  if rng.is_per_ray(key):
+    return key
+  if randomized or noise:
+    raise ValueError("one PRNG key for a batch that draws would give every ray the same "
+                     "numbers: pass per-ray keys [R, 2]")
+  return jnp.broadcast_to(key, (num_rays, *key.shape))
 
 
 def render_rays(model, sampler_cfg, params, origins, dirs, key, *, near, far,
                 white_background, randomized, noise=0.0, guide: Optional[Guide] = None,
                 times=None, window=None, coarse_params=None, band_fraction=None):
   """Renders rays with a NeRF stage's sampler.
+
+  Each ray's samples are drawn from its own key by the per-ray samplers
+  (ray_edges, samplers.hierarchical), mapped over the rays here.
 
   Args:
     model: a radiance field (models.NeRFMLP or alike); sampler_cfg: the
@@ -92,7 +116,8 @@ def render_rays(model, sampler_cfg, params, origins, dirs, key, *, near, far,
       importance sampler (NeRF's coarse MLP); None: `params` serve both.
     band_fraction: FreeNeRF's P.E. mask position passed to the field, or None.
     origins, dirs: [R, 3] rays (dirs unit length).
-    key: PRNG key for jitter and density noise, or per-ray keys [R, 2].
+    key: per-ray keys [R, 2], or one key when nothing is drawn (randomized
+      False, noise 0).
     near, far: scalar bounds.
     randomized: jitter samples (training) or not (evaluation).
     noise: density noise std (training only).
@@ -104,21 +129,24 @@ def render_rays(model, sampler_cfg, params, origins, dirs, key, *, near, far,
     list of render dicts, coarse first; the last is the final rendering.
   """
   spec = samplers.SAMPLERS.get(sampler_cfg.kind, "sampler.kind")
-  k_s, k_n, k_f, k_n2 = rng.split(key, 4)
-  shape = origins.shape[:-1]
+  keys = per_ray_keys(key, origins.shape[0], randomized, noise)
+  k_s, k_n, k_f, k_n2 = rng.split(keys, 4)
   guide_depth = None
   if spec.guided:
     guide_depth, _ = ray_field_depth(guide, origins, dirs)
     guide_depth = jax.lax.stop_gradient(guide_depth)
-  t = sample_edges(sampler_cfg, k_s, shape, near, far, guide_depth, randomized, window)
+  edges = functools.partial(ray_edges, sampler_cfg, near=near, far=far, randomized=randomized,
+                            window=window)
+  t = jax.vmap(lambda k, g: edges(k, guide_depth=g))(k_s, guide_depth)
   first = params if coarse_params is None else coarse_params
   out = [composite(model, first, origins, dirs, t, white_background, k_n, noise, times,
                    band_fraction)]
   if spec.importance:
-    t_fine = samplers.hierarchical(k_f, t, out[0]["weights"], sampler_cfg.num_samples,
-                                   randomized)
+    resample = functools.partial(samplers.hierarchical, num_samples=sampler_cfg.num_samples,
+                                 randomized=randomized)
+    t_fine = jax.vmap(resample)(k_f, t, out[0]["weights"])
     if spec.merge_coarse:
-      t_fine = samplers.merge_edges(jax.lax.stop_gradient(t), t_fine)
+      t_fine = jax.vmap(samplers.merge_edges)(jax.lax.stop_gradient(t), t_fine)
     out.append(composite(model, params, origins, dirs, t_fine, white_background, k_n2, noise,
                          times, band_fraction))
   return out
@@ -203,8 +231,8 @@ def lo_targets(model, params, origins, dirs, *, num_samples, near, far, white_ba
   and acc [R].
   """
   def targets(origins, dirs, times):
-    t = samplers.stratified(None, jnp.full(origins.shape[:-1], near), far, num_samples,
-                            randomized=False)
+    t = jax.vmap(lambda o: samplers.stratified(None, near, far, num_samples,
+                                               randomized=False))(origins)
     out = composite(model, params, origins, dirs, t, white_background, times=times)
     depth = out["depth_max"] if target == "max_weight" else render.normalized_depth(
         out["depth"], out["acc"])

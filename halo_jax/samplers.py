@@ -1,8 +1,10 @@
 """Where to put samples along a ray: stratified, hierarchical, depth-guided.
 
-Every sampler returns sorted interval edges `t_edges` [..., N + 1]; the model
-is queried at the midpoints and `render.volume_render` composites the N
-intervals.
+Every sampler is written for one ray, with one PRNG key, and returns its
+sorted interval edges `t_edges` [N + 1]; `raycast` maps them over a batch of
+rays with `jax.vmap` (each ray its own key), queries the field at the
+midpoints and composites the N intervals with `render.volume_render`. (They
+also accept leading batch axes, [..., N + 1], for host-side callers.)
 """
 import dataclasses
 

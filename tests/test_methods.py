@@ -74,7 +74,7 @@ def test_coarse_fine_uses_the_coarse_mlp_and_composites_both_sample_sets():
   o = jnp.tile(jnp.array([[0.0, 0.0, 4.0]]), (8, 1))
   d = jnp.tile(jnp.array([[0.0, 0.0, -1.0]]), (8, 1))
   kw = dict(near=2.0, far=6.0, white_background=True, randomized=True)
-  key = jax.random.PRNGKey(3)
+  key = jax.random.split(jax.random.PRNGKey(3), 8)  # one key per ray
   outs = raycast.render_rays(m, cfg, fine, o, d, key, coarse_params=coarse, **kw)
   assert outs[0]["weights"].shape == (8, 16) and outs[1]["weights"].shape == (8, 16 + 32 + 1)
   same = raycast.render_rays(m, cfg, fine, o, d, key, **kw)
@@ -85,6 +85,9 @@ def test_coarse_fine_uses_the_coarse_mlp_and_composites_both_sample_sets():
       -np.cumsum(outs[1]["sigma"] * 0, -1))[..., -1] * 0, outs[1]["acc"], rtol=1e-6)
   edges = samplers.merge_edges(jnp.array([[0.0, 0.5, 1.0]]), jnp.array([[0.0, 0.2, 1.0]]))
   np.testing.assert_allclose(edges, [[0.0, 0.0, 0.2, 0.5, 1.0, 1.0]])
+  # one key for a batch that draws would give every ray the same jitter
+  with pytest.raises(ValueError, match="per-ray keys"):
+    raycast.render_rays(m, cfg, fine, o, d, jax.random.PRNGKey(3), **kw)
 
 
 def test_one_image_batches_stay_in_one_view_and_its_crop():

@@ -43,7 +43,9 @@ def free_port():
 def launch(scene_root, wd, pid, num, steps=6, port=0):
   code = WORKER.format(tests=os.path.join(REPO, "tests"), root=scene_root, wd=wd, steps=steps,
                        port=port)
-  env = dict(os.environ, JAX_PLATFORMS="cpu", XLA_FLAGS="")
+  env = dict(os.environ, JAX_PLATFORMS="cpu",  # one device per process: no forced count
+             XLA_FLAGS=os.environ.get("XLA_FLAGS", "").replace(
+                 "--xla_force_host_platform_device_count=2", ""))
   return subprocess.Popen([sys.executable, "-c", code, str(pid), str(num)], cwd=REPO, env=env,
                           stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
 

@@ -1,5 +1,5 @@
-"""Data parallelism on 2 CPU devices: same loss trajectory as one device
-(also with each device running its share in micro-batches)."""
+"""Data parallelism on 2 CPU devices and micro-batches: the same loss
+trajectory as one device running the whole batch at once."""
 import json
 import os
 import subprocess
@@ -24,9 +24,10 @@ mesh = parallel.make_mesh(c.parallel)
 x = jax.jit(lambda v: parallel.shard_batch(v * 2.0, mesh))(jnp.arange(8.0))
 shards = sorted(tuple(s.data.tolist()) for s in x.addressable_shards)
 out = {{"shards": shards, "losses": {{}}}}
-for dp, parts in ((False, 1), (True, 1), (True, 2)):
+for dp, parts in ((False, 1), (False, 4), (True, 2)):
   c = pipeline_config({root!r}, 8, parts, dp)
   c.eval.lpips = False
+  assert c.hi.empty.weight > 0 and c.hi.density_noise > 0
   wd = {wd!r} + "/dp" + str(int(dp)) + "_" + str(parts)
   pipeline.run(c, wd)
   recs = [json.loads(l) for l in open(wd + "/metrics.jsonl")]
@@ -37,9 +38,12 @@ print("RESULT" + json.dumps(out))
 
 
 @pytest.mark.slow
-def test_two_devices_follow_the_single_device_trajectory(scene_root, tmp_path):
-  env = dict(os.environ, XLA_FLAGS="--xla_force_host_platform_device_count=2",
-             JAX_PLATFORMS="cpu")
+def test_two_devices_and_micro_batches_follow_the_whole_batch(scene_root, tmp_path):
+  """lo, ray and hi (with L_empty, density noise and precrop): one device in 4
+  micro-batches, and two devices each running its half in 2, log the losses
+  of one device's whole-batch step, step for step."""
+  env = dict(os.environ, JAX_PLATFORMS="cpu",
+             XLA_FLAGS=f"{os.environ.get('XLA_FLAGS', '')} --xla_force_host_platform_device_count=2")
   code = CODE.format(tests=os.path.join(REPO, "tests"), root=scene_root, wd=str(tmp_path))
   res = subprocess.run([sys.executable, "-c", code], cwd=REPO, env=env, capture_output=True,
                        text=True, timeout=600)
@@ -49,7 +53,6 @@ def test_two_devices_follow_the_single_device_trajectory(scene_root, tmp_path):
   assert out["shards"] == [[0.0, 2.0, 4.0, 6.0], [8.0, 10.0, 12.0, 14.0]]
   one = out["losses"]["False_1"]
   assert len(one) == 24
-  # Two devices, and two devices each running the batch in two parts.
-  for two in (out["losses"]["True_1"], out["losses"]["True_2"]):
-    assert [r[:2] for r in one] == [r[:2] for r in two]
-    np.testing.assert_allclose([r[2] for r in two], [r[2] for r in one], rtol=1e-4)
+  for other in (out["losses"]["False_4"], out["losses"]["True_2"]):
+    assert [r[:2] for r in one] == [r[:2] for r in other]
+    np.testing.assert_allclose([r[2] for r in other], [r[2] for r in one], rtol=1e-4)

@@ -93,9 +93,9 @@ c.hi.encoding.with_lo = True
 c.hi.init_from_lo = True
 c.eval.lpips = False
 for name in ("lo", "ray", "hi"):
-  c[name].update(steps=150, checkpoint_every=25, log_every=10)
+  c[name].update(steps=60, checkpoint_every=10, log_every=5)
   c[name].batch_rays = 128
-c.lo.eval_every = c.hi.eval_every = 50
+c.lo.eval_every = c.hi.eval_every = 20
 pipeline.run(c, {wd!r})
 print("DONE")
 """
@@ -132,7 +132,7 @@ def test_sigkill_anywhere_then_resume_matches_uninterrupted_run(scene_root, tmp_
   assert p.returncode == 0 and "DONE" in out, err[-3000:]
 
   # Kill mid-Lo (after its second checkpoint), mid-ray and mid-Hi; resume each time.
-  for stage, ckpt in (("lo", 50), ("ray", 125), ("hi", 75)):
+  for stage, ckpt in (("lo", 20), ("ray", 50), ("hi", 30)):
     p = _launch(killed, scene_root)
     assert _kill_when(p, os.path.join(killed, stage, "checkpoints", str(ckpt))), (
         f"the run ended before {stage} wrote checkpoint {ckpt}: {p.stderr.read()[-2000:]}")

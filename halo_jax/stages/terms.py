@@ -128,7 +128,7 @@ def _empty_value(x: Inputs, cfg):
   keys = microbatch.part_of(jax.random.split(k_samples, e.num_rays), x.part)
   j = parallel.shard_batch(microbatch.part_of(j, x.part), x.mesh)
   times = bank["times"][j] if "times" in bank else None
-  t = samplers.stratified(keys, jnp.full(j.shape, x.near), x.far, e.num_samples)
+  t = jax.vmap(lambda k: samplers.stratified(k, x.near, x.far, e.num_samples))(keys)
   acc = raycast.composite(x.model, x.params["nerf"], bank["origins"][j], bank["dirs"][j], t,
                           x.white, times=times)["acc"]
   value = losses.empty_space(acc, bank["acc"][j], e.tau)
