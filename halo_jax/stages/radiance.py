@@ -6,9 +6,11 @@ low-frequency field with stratified samples; Hi-NeRF reads the frozen ray
 field's depth (depth_guided) and L_empty against the frozen Lo-NeRF; the
 baselines are the Hi stage with other samplers and terms.
 """
+import dataclasses
 import functools
 import os
 import time
+from typing import Any
 
 import jax
 import numpy as np
@@ -106,24 +108,24 @@ def band_fraction(cfg, step):
 def loss_fn(params, data, key, step, part=None, *, s):
   """The stage's loss on one batch drawn on device (split over `s.mesh`'s
   devices when data-parallel), or on its `part` (microbatch.part_of: every ray
-  keeps its own PRNG key). s: the stage's static settings (`loss_settings`)."""
-  cfg = s["cfg"]
+  keeps its own PRNG key). s: the stage's StepSettings (`loss_settings`)."""
+  cfg = s.cfg
   k_idx, k_crop, k_ren, k_extra, k_extra_s = jax.random.split(key, 5)
   idx = batches.draw(k_idx, k_crop, step, data["origins"].shape[0], cfg.batch_rays,
                      data["index"], cfg.precrop_steps, cfg.one_image)
   keys = microbatch.part_of(jax.random.split(k_ren, cfg.batch_rays), part)
-  idx = parallel.shard_batch(microbatch.part_of(idx, part), s["mesh"])
+  idx = parallel.shard_batch(microbatch.part_of(idx, part), s.mesh)
   batch = {"origins": data["origins"][idx], "dirs": data["dirs"][idx], "rgb": data["rgb"][idx],
            "times": data["times"][idx] if "times" in data else None, "idx": idx}
   guide, window = _guide_at(s, params, data, step)
   outs = raycast.render_rays(
-      s["model"], cfg.sampler, params["nerf"], batch["origins"], batch["dirs"], keys,
-      near=s["near"], far=s["far"], white_background=s["white"], randomized=True,
+      s.model, cfg.sampler, params["nerf"], batch["origins"], batch["dirs"], keys,
+      near=s.near, far=s.far, white_background=s.white, randomized=True,
       noise=cfg.density_noise, guide=guide, times=batch["times"], window=window,
       coarse_params=params.get("coarse"), band_fraction=band_fraction(cfg, step))
-  x = terms.Inputs(params, s["model"], outs, batch, data, (k_extra, k_extra_s), part,
-                   s["mesh"], s["near"], s["far"], s["white"], guide)
-  loss, aux = terms.total(cfg, step, x, s["terms"])
+  x = terms.Inputs(params, s.model, outs, batch, data, (k_extra, k_extra_s), part,
+                   s.mesh, s.near, s.far, s.white, guide)
+  loss, aux = terms.total(cfg, step, x, s.terms)
   if window is not None:
     aux["alpha"] = window
   return loss, aux
@@ -131,13 +133,13 @@ def loss_fn(params, data, key, step, part=None, *, s):
 
 def _guide_at(s, params, data, step):
   """(Guide or None, the joint window or None) for this step."""
-  spec = _sampler(s["cfg"])
+  spec = s.sampler
   if not spec.guided:
     return None, None
   if spec.trains_guide:
-    return (raycast.Guide(s["guide_model"], params["ray"], s["geometry"], s["radius"]),
-            joint_window(s["cfg"], step))
-  return raycast.Guide(s["guide_model"], data["guide"], s["geometry"], s["radius"]), None
+    return (raycast.Guide(s.guide_model, params["ray"], s.geometry, s.radius),
+            joint_window(s.cfg, step))
+  return raycast.Guide(s.guide_model, data["guide"], s.geometry, s.radius), None
 
 
 def _guide_setup(ctx: base.StageContext):
@@ -167,22 +169,41 @@ def _initial_params(ctx: base.StageContext):
   return params
 
 
+@dataclasses.dataclass(frozen=True)
+class StepSettings:
+  """What a radiance stage's step reads besides its arrays, built once per
+  stage (`loss_settings`): the stage config, the field, the sampler's spec,
+  the guide's model and sphere (guided samplers), the ray bounds, the active
+  loss terms and the data-parallel mesh."""
+  cfg: Any
+  model: Any
+  sampler: samplers.SamplerSpec
+  guide_model: Any
+  geometry: geometry.Geometry
+  radius: float
+  near: float
+  far: float
+  white: bool
+  terms: tuple
+  mesh: Any
+
+
 def loss_settings(cfg, model, *, near, far, white, geometry_=geometry.Geometry.SPHERE,
-                  radius=0.0, guide_model=None, mesh=None):
+                  radius=0.0, guide_model=None, mesh=None) -> StepSettings:
   """The static settings `loss_fn` reads (its `s`)."""
-  return dict(cfg=cfg, model=model, guide_model=guide_model, geometry=geometry_,
-              radius=radius, near=near, far=far, white=white, terms=terms.active_terms(cfg),
-              mesh=mesh)
+  return StepSettings(cfg=cfg, model=model, sampler=_sampler(cfg), guide_model=guide_model,
+                      geometry=geometry_, radius=radius, near=near, far=far, white=white,
+                      terms=terms.active_terms(cfg), mesh=mesh)
 
 
-def _eval_closures(ctx, model, guide_model, guide_params, radius, cfg):
+def _eval_closures(ctx, s: StepSettings, guide_params):
   """(make_eval(params, step) -> render fn of (o, d[, t]), eval_fn for curves)."""
-  config, ds = ctx.config, ctx.dataset
+  config, ds, cfg = ctx.config, ctx.dataset, s.cfg
   render_eval = raycast.make_eval_fn(
-      model, cfg.sampler, near=ds.near, far=ds.far, white_background=ds.white_background,
-      guide_model=guide_model, geometry=ds.geometry, radius=radius,
+      s.model, cfg.sampler, near=s.near, far=s.far, white_background=s.white,
+      guide_model=s.guide_model, geometry=s.geometry, radius=s.radius,
       block_rays=config.eval.block_rays)
-  trains_guide = _sampler(cfg).trains_guide
+  trains_guide = s.sampler.trains_guide
 
   def make_eval(p, step):
     step = cfg.steps if step is None else step
@@ -220,10 +241,11 @@ def train(ctx: base.StageContext):
   data = jax.device_put(data)
   bank_s = time.perf_counter() - t0  # rendering Lo targets counts as training time
   cfg = loop.minus_seconds(cfg, bank_s)
-  step_loss = functools.partial(loss_fn, s=loss_settings(
-      cfg, model, near=ds.near, far=ds.far, white=ds.white_background, geometry_=ds.geometry,
-      radius=radius, guide_model=guide_model, mesh=ctx.mesh))
-  make_eval, eval_fn = _eval_closures(ctx, model, guide_model, guide_params, radius, cfg)
+  settings = loss_settings(cfg, model, near=ds.near, far=ds.far, white=ds.white_background,
+                           geometry_=ds.geometry, radius=radius, guide_model=guide_model,
+                           mesh=ctx.mesh)
+  make_eval, eval_fn = _eval_closures(ctx, settings, guide_params)
+  step_loss = functools.partial(loss_fn, s=settings)
   params, step, info = loop.train(name, cfg, ctx.workdir, params, step_loss, data, config.seed,
                                   eval_fn, ctx.log, ctx.wall_offset + bank_s, ctx.mesh,
                                   snapshot_s=ctx.front_s)
@@ -245,7 +267,10 @@ def renderer(config, name, dataset, states):
   ctx = base.StageContext(config, name, dataset, "", states)
   model = models.nerf_from_config(config, name)
   guide_model, guide_params, radius = _guide_setup(ctx)
-  make_eval, _ = _eval_closures(ctx, model, guide_model, guide_params, radius, config[name])
+  settings = loss_settings(config[name], model, near=dataset.near, far=dataset.far,
+                           white=dataset.white_background, geometry_=dataset.geometry,
+                           radius=radius, guide_model=guide_model)
+  make_eval, _ = _eval_closures(ctx, settings, guide_params)
   return make_eval(states[name].params, int(states[name].step))
 
 
