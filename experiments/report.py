@@ -53,7 +53,7 @@ def load(results_root):
   out = collections.defaultdict(lambda: collections.defaultdict(dict))
   for path in sorted(glob.glob(os.path.join(results_root, "*", "*", "*", "*", "seed*.json"))):
     suite, mode, scene, method = path.split(os.sep)[-5:-1]
-    if suite == "ablations":  # experiments/ablations.py reports its own studies
+    if suite in ("ablations", "trials"):  # reported by their studies and notes
       continue
     with open(path) as f:
       out[(suite, mode)][scene].setdefault(method, []).append(json.load(f))
@@ -541,6 +541,23 @@ def plot_fronts_overview(scenes, path, methods=(BASELINE, "halo")):
   return drawn
 
 
+def headline(scenes, method="halo") -> str:
+  """One sentence: `method` against nerf_tuned over the scenes where both ran
+  (the mean over scenes of the mean over seeds), and the scenes it trails."""
+  both = sorted(s for s, by in scenes.items() if method in by and BASELINE in by)
+  if not both:
+    return ""
+  delta = {s: np.mean([r["psnr"] for r in scenes[s][method]])
+           - np.mean([r["psnr"] for r in scenes[s][BASELINE]]) for s in both}
+  seeds = sorted({len(scenes[s][m]) for s in both for m in (method, BASELINE)})
+  behind = ", ".join(f"{s} ({d:+.2f})" for s, d in sorted(delta.items()) if d <= 0)
+  return (f"{method} against {BASELINE} on the {len(both)} scenes both ran "
+          f"({'-'.join(map(str, (seeds[0], seeds[-1]))) if len(seeds) > 1 else seeds[0]} seeds "
+          f"each): {np.mean(list(delta.values())):+.2f} dB on average, ahead on "
+          f"{sum(d > 0 for d in delta.values())} of {len(both)}"
+          + (f"; behind or level on {behind}." if behind else "."))
+
+
 def readme_block(all_suites, docs=None):
   """The README's results table (and, where runs have fronts and `docs` is
   given, the fronts figure written there and HALO's time to nerf_tuned's end)."""
@@ -552,6 +569,8 @@ def readme_block(all_suites, docs=None):
            + (" halo: s to nerf_tuned's end (× its time) |" if with_reach else ""),
            "|---|---|" + "---|" * (len(METHOD_ORDER) + with_reach)]
   figures = []
+  if ("cpu", "time") in all_suites:
+    figures += ["", "`cpu/time`: " + headline(all_suites[("cpu", "time")])]
   for (suite, mode), scenes in sorted(all_suites.items()):
     if suite in ("smoke", "auto", "ingredients"):
       continue

@@ -54,6 +54,13 @@ def test_tables_and_readme_block(tmp_path):
   text = readme.read_text()
   assert "old" not in text and "| [cpu/time](docs/results/cpu_time.md) | s1 |" in text
   assert text.startswith("top\n") and text.endswith("bottom\n")
+  # the headline is computed from the files: 23 against the mean of 20 and 22
+  assert ("halo against nerf_tuned on the 1 scenes both ran (1-2 seeds each): +2.00 dB on "
+          "average, ahead on 1 of 1.") in text
+  _write(root, "halo", 0, _record(20.5, [[1, 18.0]]), scene="s2")
+  _write(root, "nerf_tuned", 0, _record(21.0, [[1, 18.0]]), scene="s2")
+  line = report.headline(report.load(root)[("cpu", "time")])
+  assert "+0.75 dB on average, ahead on 1 of 2; behind or level on s2 (-0.50)." in line
 
 
 def test_summary_table_names_scene_changes(tmp_path):
