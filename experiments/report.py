@@ -552,7 +552,7 @@ def headline(scenes, method="halo") -> str:
   seeds = sorted({len(scenes[s][m]) for s in both for m in (method, BASELINE)})
   behind = ", ".join(f"{s} ({d:+.2f})" for s, d in sorted(delta.items()) if d <= 0)
   return (f"{method} against {BASELINE} on the {len(both)} scenes both ran "
-          f"({'-'.join(map(str, (seeds[0], seeds[-1]))) if len(seeds) > 1 else seeds[0]} seeds "
+          f"({seeds[0] if len(seeds) == 1 else f'{seeds[0]}-{seeds[-1]}'} seeds "
           f"each): {np.mean(list(delta.values())):+.2f} dB on average, ahead on "
           f"{sum(d > 0 for d in delta.values())} of {len(both)}"
           + (f"; behind or level on {behind}." if behind else "."))

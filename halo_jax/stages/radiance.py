@@ -196,6 +196,17 @@ def loss_settings(cfg, model, *, near, far, white, geometry_=geometry.Geometry.S
                       terms=terms.active_terms(cfg), mesh=mesh)
 
 
+def _stage_settings(ctx: base.StageContext, cfg):
+  """(StepSettings of stage ctx.name run with `cfg`, the frozen guide's
+  params or None)."""
+  ds = ctx.dataset
+  guide_model, guide_params, radius = _guide_setup(ctx)
+  settings = loss_settings(cfg, models.nerf_from_config(ctx.config, ctx.name), near=ds.near,
+                           far=ds.far, white=ds.white_background, geometry_=ds.geometry,
+                           radius=radius, guide_model=guide_model, mesh=ctx.mesh)
+  return settings, guide_params
+
+
 def _eval_closures(ctx, s: StepSettings, guide_params):
   """(make_eval(params, step) -> render fn of (o, d[, t]), eval_fn for curves)."""
   config, ds, cfg = ctx.config, ctx.dataset, s.cfg
@@ -229,11 +240,10 @@ def train(ctx: base.StageContext):
     microbatch.check_parts(cfg, cfg.empty.num_rays, f"{name}.empty.num_rays", ctx.mesh)
   if any(n == "unseen" for n, _ in active):
     microbatch.check_parts(cfg, cfg.unseen.num_points, f"{name}.unseen.num_points", ctx.mesh)
-  model = models.nerf_from_config(config, name)
   params = _initial_params(ctx)
   t0 = time.perf_counter()
   data = training_rays(ds.train, cfg.precrop_frac)
-  guide_model, guide_params, radius = _guide_setup(ctx)
+  settings, guide_params = _stage_settings(ctx, cfg)
   setup = terms.Setup(config, cfg, ds, data, ctx.states)
   data = dict(data, **{n: t.prepare(setup) for n, t in active if t.prepare is not None})
   if guide_params is not None:
@@ -241,9 +251,7 @@ def train(ctx: base.StageContext):
   data = jax.device_put(data)
   bank_s = time.perf_counter() - t0  # rendering Lo targets counts as training time
   cfg = loop.minus_seconds(cfg, bank_s)
-  settings = loss_settings(cfg, model, near=ds.near, far=ds.far, white=ds.white_background,
-                           geometry_=ds.geometry, radius=radius, guide_model=guide_model,
-                           mesh=ctx.mesh)
+  settings = dataclasses.replace(settings, cfg=cfg)
   make_eval, eval_fn = _eval_closures(ctx, settings, guide_params)
   step_loss = functools.partial(loss_fn, s=settings)
   params, step, info = loop.train(name, cfg, ctx.workdir, params, step_loss, data, config.seed,
@@ -265,11 +273,7 @@ def renderer(config, name, dataset, states):
   """The finished stage states[name] as a render fn of (o, d[, t]), exactly as
   its final evaluation rendered (same sampler, guide and step-dependent terms)."""
   ctx = base.StageContext(config, name, dataset, "", states)
-  model = models.nerf_from_config(config, name)
-  guide_model, guide_params, radius = _guide_setup(ctx)
-  settings = loss_settings(config[name], model, near=dataset.near, far=dataset.far,
-                           white=dataset.white_background, geometry_=dataset.geometry,
-                           radius=radius, guide_model=guide_model)
+  settings, guide_params = _stage_settings(ctx, config[name])
   make_eval, _ = _eval_closures(ctx, settings, guide_params)
   return make_eval(states[name].params, int(states[name].step))
 
