@@ -28,7 +28,9 @@ if __package__ in (None, ""):  # run as a script: the repository root holds `exp
 from experiments import run_file, throughput_report  # pylint: disable=g-import-not-at-top
 from halo_jax import camera, geometry, models, provenance, ray_fields  # pylint: disable=g-import-not-at-top
 from halo_jax import raycast, runs  # pylint: disable=g-import-not-at-top
-from halo_jax.stages import radiance, ray, step as train_step  # pylint: disable=g-import-not-at-top
+from halo_jax.rays import Pixels, Rays, Targets  # pylint: disable=g-import-not-at-top
+from halo_jax.stages import batches, radiance, ray, terms  # pylint: disable=g-import-not-at-top
+from halo_jax.stages import step as train_step  # pylint: disable=g-import-not-at-top
 
 FLAGS = flags.FLAGS
 config_flags.DEFINE_config_file("config", "configs/default.py", "Config (path[:variant]).")
@@ -115,21 +117,21 @@ def main(argv):
   rgb = np.random.default_rng(0).uniform(size=(n_data, 3)).astype(np.float32)
   index = {"crop_idx": np.arange(n_data, dtype=np.int32), "crop_pix": np.arange(64, dtype=np.int32),
            "view_pixels": np.full((), n_data, np.int32)}
-  base = {"origins": o, "dirs": d, "rgb": rgb, "index": index}
+  pixels = Pixels(Rays(o, d), rgb, index)
   peak = matmul_peak(FLAGS.peak_n)  # measured again at the end; the larger is the peak
   results = {"peak_gflops": peak, "device": str(jax.devices()[0]), "steps": {}}
 
   def nerf_step(label, config, name, guide=None):
     cfg = config[name]
     model = models.nerf_from_config(config, name)
-    data = dict(base)
-    guide_model = None
+    guide_model = guide_params = None
     if cfg.sampler.kind == "depth_guided":
-      guide_model = guide[0]
-      data["guide"] = guide[1]
+      guide_model, guide_params = guide
+    prepared = {}
     if "empty" in cfg and cfg.empty.weight > 0:
-      data["empty"] = {"origins": o, "dirs": d, "acc": np.zeros(n_data, np.float32),
-                       "idx": np.arange(n_data, dtype=np.int32)}
+      prepared["empty"] = terms.EmptyBank(Rays(o, d), np.zeros(n_data, np.float32),
+                                          np.arange(n_data, dtype=np.int32))
+    data = batches.StageData(pixels, prepared, guide_params)
     lf = functools.partial(radiance.loss_fn, s=radiance.loss_settings(
         cfg, model, near=near, far=far, white=True, radius=4.03, guide_model=guide_model))
     samples = cfg.sampler.num_samples + (cfg.sampler.num_coarse
@@ -142,9 +144,8 @@ def main(argv):
   nerf_step("lo", c, "lo")
   rf = ray_fields.ray_field_from_config(c.ray, near, far)
   rf_params = {"ray": ray_fields.init_ray_field(rf, 0)}
-  rdata = {"train": {"origins": o, "dirs": d, "depth": np.full(n_data, 4.0, np.float32),
-                     "acc": np.ones(n_data, np.float32)}}
-  rdata["random"] = rdata["train"]
+  targets = Targets(Rays(o, d), np.full(n_data, 4.0, np.float32), np.ones(n_data, np.float32))
+  rdata = ray.RayStageData(targets, targets)
   n_rand = int(round(c.ray.batch_rays * c.ray.random_fraction))
   lf = functools.partial(ray.loss_fn, model=rf, guide_geometry=geometry.Geometry.SPHERE,
                          radius=4.03, far=far,

@@ -15,10 +15,11 @@ or let a launch search by itself with `--config.lo.encoding.auto=True`.
 """
 import os
 
-from absl import app, flags, logging
+from absl import app, flags
 from ml_collections import config_flags
 
-from halo_jax import datasets, pipeline, plots, tables, tuning, user_errors, workdir_lock
+from halo_jax import datasets, pipeline, plots, tables, tuning
+from halo_jax.cli import run_in_workdir
 
 FLAGS = flags.FLAGS
 config_flags.DEFINE_config_file("config", None, "HALO config (path[:variant]).",
@@ -63,10 +64,7 @@ def report(result, workdir):
 
 def main(argv):
   del argv
-  logging.set_verbosity(logging.WARNING)
-  # one launch per workdir; bad input is one line and exit 2, not a traceback
-  with user_errors.reported(), workdir_lock.hold(FLAGS.workdir):
-    run(FLAGS.config)
+  run_in_workdir(run, FLAGS.config, FLAGS.workdir)
 
 
 def run(config):

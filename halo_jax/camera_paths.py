@@ -20,15 +20,6 @@ from halo_jax.datasets.llff import NDCViews, average_pose
 from halo_jax.datasets.stanford_lf import LightFieldViews
 from halo_jax.geometry import Geometry
 
-KINDS = {Geometry.SPHERE: ("orbit",), Geometry.NDC: ("spiral",), Geometry.TWO_PLANE: ("uv",)}
-DYNAMIC_KINDS = ("orbit_time", "time")
-
-
-def kinds(geometry: Geometry, dynamic: bool):
-  """Path names for a scene kind, the default first."""
-  return DYNAMIC_KINDS + KINDS[geometry] if dynamic else KINDS[geometry]
-
-
 def _blank(n, h, w):
   return np.zeros((n, h, w, 3), np.float32)
 
@@ -114,16 +105,17 @@ def _read_file(path, geometry):
 
 
 def views_for(path: str, dataset, n: int, downscale: int = 1):
-  """The Views of path `path` (a kind from `kinds` or a file) for `dataset`, at
+  """The Views of path `path` (one of dataset.facts.path_kinds, or a file) for `dataset`, at
   the test views' size divided by `downscale` (the field of view kept)."""
   geo, test = dataset.geometry, dataset.test
   h, w = test.height // downscale, test.width // downscale
   focal = getattr(test, "focal", 0.0) * w / test.width
   ramp = np.linspace(0.0, 1.0, n, dtype=np.float32)
-  if path not in kinds(geo, dataset.dynamic) and not path.endswith((".npy", ".json")):
+  kinds = dataset.facts.path_kinds
+  if path not in kinds and not path.endswith((".npy", ".json")):
     raise DataError(f"--path={path!r}: this scene ({geo.value} rays"
                     f"{', dynamic' if dataset.dynamic else ''}) takes one of "
-                    f"{list(kinds(geo, dataset.dynamic))} or a .npy / .json file")
+                    f"{list(kinds)} or a .npy / .json file")
   if geo == Geometry.TWO_PLANE:
     uv = uv_ellipse(dataset.train.uv, n) if path == "uv" else _read_file(path, geo)[0]
     return LightFieldViews(_blank(len(uv), h, w), uv, _names(len(uv)))

@@ -86,15 +86,18 @@ def _radiance_stage(L, scale, use_viewdirs, steps, num_samples, sampler):
   cfg.precrop_steps = 500
   cfg.precrop_frac = 0.5
   cfg.one_image = False     # draw each step's rays from one random training view
+  # Start from Lo-NeRF's weights: every layer of equal shape (the authors'
+  # option, input layers excluded), or exactly Lo's function with
+  # encoding.with_lo, which prepends Lo-NeRF's P.E. to this stage's (not for
+  # the 'lo' stage itself).
+  cfg.init_from_lo = False
+  cfg.encoding.with_lo = False
   return cfg
 
 
 def _hi_extras(cfg):
   """The fields only the output stage reads: HALO's regularisers and sampler
   options, and the baselines' (FreeNeRF's) terms, all off here."""
-  # with_lo: prepend Lo-NeRF's P.E. to this stage's (lets init_from_lo start
-  # Hi-NeRF as an exact copy of Lo-NeRF).
-  cfg.encoding.with_lo = False
   cfg.empty = ml_collections.ConfigDict(dict(
       weight=0.0,           # lambda of L_empty (0 leaves the loss and the Lo bank out)
       tau=0.01,             # Lo-NeRF opacity below which a random ray counts as empty
@@ -108,9 +111,6 @@ def _hi_extras(cfg):
   # from 1 to alpha_final over alpha_steps (docs/light_fields.md).
   cfg.joint = ml_collections.ConfigDict(dict(consist_weight=1.0, alpha_final=0.5,
                                              alpha_steps=20000))
-  # Start from Lo-NeRF's weights: every layer of equal shape (the authors'
-  # option, input layers excluded), or exactly Lo's function with encoding.with_lo.
-  cfg.init_from_lo = False
   # FreeNeRF (methods/freenerf.py): the P.E. bands open linearly until
   # end * steps (0: no mask), and the occlusion loss on the density of the
   # num_near samples nearest the camera (weight 0: off).

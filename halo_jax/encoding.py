@@ -83,6 +83,13 @@ def positional_encoding(x, num_freqs: int, scale: float = 1.0, include_input: bo
   return jnp.concatenate(feats, axis=-1)
 
 
+def over_points(encode, rows):
+  """The batch form of a per-point encoding: `encode` (one point [D] -> [E])
+  mapped over rows [P, D] with jax.vmap -> [P, E]. The fields encode their
+  points through here."""
+  return jax.vmap(encode)(rows)
+
+
 def naive_positional_encoding(x, num_freqs: int, scale: float = 1.0):
   """The uncompensated sin/cos features [..., 2 L D] (for the precision comparison)."""
   angles = (x / scale)[..., None, :] * (2.0 ** jnp.arange(num_freqs, dtype=x.dtype))[:, None]

@@ -9,6 +9,8 @@ to one camera (u*, v*) gives the 3D point (s', t', theta).
 """
 import jax.numpy as jnp
 
+from halo_jax import render
+
 
 def epi_points(uv, st, theta, uv_star=(0.0, 0.0)):
   """Aligns points on two-plane rays to the camera (u*, v*).
@@ -32,6 +34,22 @@ def epi_points(uv, st, theta, uv_star=(0.0, 0.0)):
 def theta_of_tau(tau, theta_n, theta_f):
   """tau in [0, 1] along the angle range -> theta."""
   return theta_n + (theta_f - theta_n) * tau
+
+
+def ray_points(uv, st, tau_edges, theta_n, theta_f):
+  """One two-plane ray's points at the midpoints of its intervals in tau.
+
+  Args:
+    uv, st: [2] the ray.
+    tau_edges: [N + 1] sorted interval edges in [0, 1].
+    theta_n, theta_f: the angle range tau spans.
+
+  Returns:
+    points [N, 3] (s', t', theta) and the field's view input, uv [N, 2].
+  """
+  theta = theta_of_tau(render.interval_midpoints(tau_edges), theta_n, theta_f)
+  points = epi_points(uv[None, :], st[None, :], theta)
+  return points, jnp.broadcast_to(uv, (*points.shape[:-1], 2))
 
 
 def alpha_schedule(step, steps: int, final: float):

@@ -123,10 +123,11 @@ class NeRFMLP(nn.Module):
     """
     shape = points.shape[:-1]
     points = _rows(points)
-    x = masked_positional_encoding(points, self.pos_freqs, self.pos_scale, band_fraction)
+    x = encoding.over_points(lambda p: masked_positional_encoding(
+        p, self.pos_freqs, self.pos_scale, band_fraction), points)
     if self.base_freqs > 0:
-      x = jnp.concatenate(
-          [encoding.positional_encoding(points, self.base_freqs, self.base_scale), x], -1)
+      x = jnp.concatenate([encoding.over_points(lambda p: encoding.positional_encoding(
+          p, self.base_freqs, self.base_scale), points), x], -1)
     dtype = COMPUTE_DTYPES[self.compute_dtype]
     h = MLP(self.width, self.depth, tuple(self.skips), self.compute_dtype, name="trunk")(x)
     sigma = _density(h, density_noise_key, density_noise, self.density_bias, shape,
@@ -134,7 +135,8 @@ class NeRFMLP(nn.Module):
     if self.use_viewdirs:
       feat = nn.Dense(self.width, dtype=dtype, name="bottleneck")(h)
       viewdirs = _rows(jnp.broadcast_to(viewdirs, (*shape, viewdirs.shape[-1])))
-      d = masked_positional_encoding(viewdirs, self.dir_freqs, 1.0, band_fraction)
+      d = encoding.over_points(
+          lambda v: masked_positional_encoding(v, self.dir_freqs, 1.0, band_fraction), viewdirs)
       h = nn.relu(nn.Dense(self.width // 2, dtype=dtype, name="view")(
           jnp.concatenate([feat, d.astype(feat.dtype)], -1)))
     rgb = nn.sigmoid(nn.Dense(3, dtype=jnp.float32, name="rgb")(h))
@@ -188,14 +190,17 @@ class DeformNeRF(nn.Module):
       raise ValueError("DeformNeRF needs times [..., 1] (a dynamic scene)")
     shape = points.shape[:-1]
     x, times = _rows(points), _rows(jnp.broadcast_to(times, (*shape, 1)))
-    feats = [masked_positional_encoding(x, self.pos_freqs, self.pos_scale, band_fraction),
-             masked_positional_encoding(times, self.time_freqs, self.time_scale, band_fraction)]
-    if self.base_freqs > 0:
-      feats = [encoding.positional_encoding(x, self.base_freqs, self.base_scale),
-               encoding.positional_encoding(times, self.base_time_freqs,
-                                            self.base_time_scale)] + feats
-    h = MLP(self.deform_width, self.deform_depth, (), self.compute_dtype,
-            name="deform")(jnp.concatenate(feats, -1))
+    def encode(row):  # one point's (x, y, z, t)
+      point, time = row[:3], row[3:]
+      feats = [masked_positional_encoding(point, self.pos_freqs, self.pos_scale, band_fraction),
+               masked_positional_encoding(time, self.time_freqs, self.time_scale, band_fraction)]
+      if self.base_freqs > 0:
+        feats = [encoding.positional_encoding(point, self.base_freqs, self.base_scale),
+                 encoding.positional_encoding(time, self.base_time_freqs,
+                                              self.base_time_scale)] + feats
+      return jnp.concatenate(feats, -1)
+    h = MLP(self.deform_width, self.deform_depth, (), self.compute_dtype, name="deform")(
+        encoding.over_points(encode, jnp.concatenate([x, times], -1)))
     offset = nn.Dense(3, kernel_init=nn.initializers.zeros, dtype=jnp.float32,
                       name="offset")(h).reshape(*shape, 3)
     canonical = NeRFMLP(pos_freqs=self.pos_freqs, pos_scale=self.pos_scale,
@@ -261,7 +266,7 @@ class EPINeRF(nn.Module):
 
 def _nerf_kwargs(config, name):
   cfg, m = config[name], config[name].model
-  base = config.lo.encoding if cfg.encoding.get("with_lo", False) else None
+  base = config.lo.encoding if cfg.encoding.with_lo else None
   return base, dict(pos_freqs=cfg.encoding.L, pos_scale=cfg.encoding.scale,
                     base_freqs=base.L if base else 0, base_scale=base.scale if base else 1.0,
                     width=m.width, depth=m.depth, skips=tuple(m.skips),

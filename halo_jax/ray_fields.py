@@ -31,9 +31,9 @@ class RayField(nn.Module):
   def __call__(self, entry_points, directions):
     """Args: entry_points [..., 3], directions [..., 3]. Returns depth [...], acc [...]."""
     shape = entry_points.shape[:-1]
-    x = jnp.concatenate([
-        encoding.positional_encoding(_rows(entry_points), self.freqs, self.scale),
-        encoding.positional_encoding(_rows(directions), self.freqs, self.scale)], -1)
+    pe = lambda p: encoding.positional_encoding(p, self.freqs, self.scale)
+    x = jnp.concatenate([encoding.over_points(pe, _rows(entry_points)),
+                         encoding.over_points(pe, _rows(directions))], -1)
     h = MLP(self.width, self.depth, tuple(self.skips), name="trunk")(x)
     out = nn.Dense(2, name="heads")(h).reshape(*shape, 2)
     unit = nn.sigmoid(out[..., 0]) * 1.002 - 0.001
@@ -96,8 +96,7 @@ def epi_ray_field_from_config(joint_cfg):
   m = joint_cfg.model
   return EPIRayField(std=joint_cfg.std, num_features=joint_cfg.num_features,
                      seed=joint_cfg.seed, width=m.width, depth=m.depth, skips=tuple(m.skips),
-                     uv_std=joint_cfg.get("uv_std", 0.0),
-                     color=joint_cfg.get("color_weight", 0.0) > 0)
+                     uv_std=joint_cfg.uv_std, color=joint_cfg.color_weight > 0)
 
 
 def guide_radius(ray_cfg, dataset) -> float:

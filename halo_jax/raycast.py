@@ -14,6 +14,7 @@ import numpy as np
 
 from halo_jax import camera, render, rng, samplers
 from halo_jax.geometry import Geometry
+from halo_jax.rays import Rays
 
 
 class Guide(NamedTuple):
@@ -42,22 +43,6 @@ def ray_field_depth(guide: Guide, origins, dirs):
   return t_entry + depth, acc
 
 
-def ray_edges(sampler_cfg, key, near, far, guide_depth=None, randomized=True, window=None):
-  """Interval edges [N + 1] of one ray for the first (or only) pass of a sampler.
-
-  key: one PRNG key; near, far: scalars; guide_depth: the ray field's depth
-  on this ray (guided samplers); window: the guided samplers' half window (a
-  fraction of far - near; may be traced), None for sampler_cfg.window.
-  """
-  spec = samplers.SAMPLERS.get(sampler_cfg.kind, "sampler.kind")
-  if spec.guided:
-    window = sampler_cfg.window if window is None else window
-    return samplers.depth_guided(key, guide_depth, near, far, sampler_cfg.num_samples, window,
-                                 sampler_cfg.near_only, randomized)
-  n = sampler_cfg.num_coarse if spec.importance else sampler_cfg.num_samples
-  return samplers.stratified(key, near, far, n, randomized)
-
-
 def ray_points(origin, direction, t_edges):
   """The midpoints of one ray's intervals: origin, direction [3], t_edges
   [N + 1] -> points [N, 3] and their view directions [N, 3]."""
@@ -67,18 +52,21 @@ def ray_points(origin, direction, t_edges):
 
 
 def composite(model, params, origins, dirs, t_edges, white_background, key=None, noise=0.0,
-              times=None, band_fraction=None):
-  """Queries the NeRF at every ray's interval midpoints and composites each
+              times=None, band_fraction=None, points_of=ray_points):
+  """Queries the field at every ray's interval midpoints and composites each
   ray. Returns render.volume_render's dict [R, ...] plus 'sigma' [R, N].
 
-  origins, dirs [R, 3]; t_edges [R, N + 1]. The field runs once on all R x N
+  origins, dirs [R, D]; t_edges [R, N + 1]. The field runs once on all R x N
   points (its layers on rows are its fast form); placing the points and
   compositing are written for one ray and mapped over the rays.
   key: per-ray keys [R, 2] for density noise, or None.
   times: [R, 1] per-ray time for a dynamic field (None for a static one).
   band_fraction: FreeNeRF's P.E. mask position (models.band_weights), or None.
+  points_of: (origin, dir, t_edges) of one ray -> (points [N, P], the
+    field's view input [N, V]): ray_points for 3D rays,
+    lightfield.ray_points for two-plane ones.
   """
-  pts, vdirs = jax.vmap(ray_points)(origins, dirs, t_edges)
+  pts, vdirs = jax.vmap(points_of)(origins, dirs, t_edges)
   extra = {} if band_fraction is None else {"band_fraction": band_fraction}
   if times is not None:
     extra["times"] = times[..., None, :]
@@ -106,7 +94,7 @@ def render_rays(model, sampler_cfg, params, origins, dirs, key, *, near, far,
   """Renders rays with a NeRF stage's sampler.
 
   Each ray's samples are drawn from its own key by the per-ray samplers
-  (ray_edges, samplers.hierarchical), mapped over the rays here.
+  (SamplerSpec.edges, samplers.hierarchical), mapped over the rays here.
 
   Args:
     model: a radiance field (models.NeRFMLP or alike); sampler_cfg: the
@@ -135,7 +123,7 @@ def render_rays(model, sampler_cfg, params, origins, dirs, key, *, near, far,
   if spec.guided:
     guide_depth, _ = ray_field_depth(guide, origins, dirs)
     guide_depth = jax.lax.stop_gradient(guide_depth)
-  edges = functools.partial(ray_edges, sampler_cfg, near=near, far=far, randomized=randomized,
+  edges = functools.partial(spec.edges, sampler_cfg, near=near, far=far, randomized=randomized,
                             window=window)
   t = jax.vmap(lambda k, g: edges(k, guide_depth=g))(k_s, guide_depth)
   first = params if coarse_params is None else coarse_params
@@ -197,27 +185,48 @@ def in_blocks(fn, block_rays: int, *rays):
   return jax.tree_util.tree_map(lambda y: y.reshape(num * block_rays, *y.shape[2:])[:n], out)
 
 
-def make_eval_fn(model, sampler_cfg, *, near, far, white_background, guide_model=None,
-                 geometry=Geometry.SPHERE, radius=0.0, block_rays: int = 0):
-  """A jitted (params, guide_params, origins, dirs[, times, window,
-  coarse_params, band_fraction]) -> {rgb, depth, depth_max, acc} for held-out rendering;
-  compiled once and reused. block_rays: see in_blocks (config eval.block_rays)."""
-  @jax.jit
-  def fn(params, guide_params, o, d, times=None, window=None, coarse_params=None,
-         band_fraction=None):
-    guide = None
-    if guide_model is not None:
-      guide = Guide(guide_model, guide_params, geometry, radius)
+def jit_eval(render_final, block_rays: int = 0):
+  """A jitted (state, origins, dirs[, times]) -> eval_outputs for held-out
+  rendering, compiled once per state structure and reused.
 
+  render_final: (state, rays.Rays) -> the final render dict; state is
+  whatever pytree it reads (parameters, a window). block_rays: see in_blocks
+  (config eval.block_rays).
+  """
+  @jax.jit
+  def fn(state, o, d, times=None):
     def render_block(o, d, times):
-      out = render_rays(model, sampler_cfg, params, o, d, jax.random.PRNGKey(0), near=near,
-                        far=far, white_background=white_background, randomized=False,
-                        guide=guide, times=times, window=window,
-                        coarse_params=coarse_params, band_fraction=band_fraction)[-1]
-      return {"rgb": out["rgb"], "depth": render.normalized_depth(out["depth"], out["acc"]),
-              "depth_max": out["depth_max"], "acc": out["acc"]}
+      return eval_outputs(render_final(state, Rays(o, d, times)))
     return in_blocks(render_block, block_rays, o, d, times)
   return fn
+
+
+def make_eval_fn(model, sampler_cfg, *, near, far, white_background, guide_model=None,
+                 geometry=Geometry.SPHERE, radius=0.0, block_rays: int = 0):
+  """(params, guide_params, origins, dirs[, times, window, coarse_params,
+  band_fraction]) -> {rgb, depth, depth_max, acc}: held-out rendering of a
+  3D radiance field with its sampler (jit_eval)."""
+  def render_final(state, rays):
+    params, guide_params, window, coarse_params, band_fraction = state
+    guide = None if guide_model is None else Guide(guide_model, guide_params, geometry, radius)
+    return render_rays(model, sampler_cfg, params, rays.origins, rays.dirs,
+                       jax.random.PRNGKey(0), near=near, far=far,
+                       white_background=white_background, randomized=False, guide=guide,
+                       times=rays.times, window=window, coarse_params=coarse_params,
+                       band_fraction=band_fraction)[-1]
+  jitted = jit_eval(render_final, block_rays)
+
+  def fn(params, guide_params, o, d, times=None, window=None, coarse_params=None,
+         band_fraction=None):
+    return jitted((params, guide_params, window, coarse_params, band_fraction), o, d, times)
+  return fn
+
+
+def eval_outputs(out):
+  """What a held-out render keeps of a render dict: rgb [R, 3], depth (the
+  normalised expected depth) [R], depth_max [R], acc [R]."""
+  return {"rgb": out["rgb"], "depth": render.normalized_depth(out["depth"], out["acc"]),
+          "depth_max": out["depth_max"], "acc": out["acc"]}
 
 
 @functools.partial(jax.jit, static_argnames=("model", "num_samples", "near", "far",

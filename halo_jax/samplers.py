@@ -37,6 +37,38 @@ class SamplerSpec:
   geometries: frozenset = geometry.ALL
   dynamic: bool = True
 
+  def edges(self, sampler_cfg, key, near, far, *, guide_depth=None, window=None,
+            num_full: int = 0, randomized: bool = True):
+    """Interval edges [N + 1] of one ray for the first (or only) pass.
+
+    Args:
+      sampler_cfg: the stage's `sampler` config (num_samples, num_coarse,
+        window, near_only).
+      key: one PRNG key (unused when randomized is False).
+      near, far: the ray's bounds (scalars).
+      guide_depth: a guided sampler's guide depth on this ray (scalar).
+      window: a guided sampler's half window, a fraction of far - near (may
+        be traced); None for sampler_cfg.window.
+      num_full: guided samplers: of the num_samples intervals, this many
+        stratified over all of [near, far] and the rest (less the one
+        interval the union adds) in the window (with_full_range).
+      randomized: jitter the samples.
+    """
+    if not self.guided:
+      n = sampler_cfg.num_coarse if self.importance else sampler_cfg.num_samples
+      return stratified(key, near, far, n, randomized)
+    window = sampler_cfg.window if window is None else window
+    n_win, k_full = sampler_cfg.num_samples, None
+    if num_full > 0:
+      n_win -= num_full + 1
+      if n_win < 1:
+        raise ValueError(f"{num_full} full-range samples leave no window samples of "
+                         f"sampler.num_samples={sampler_cfg.num_samples} (joint.full_range)")
+      key, k_full = jax.random.split(key)
+    edges = depth_guided(key, guide_depth, near, far, n_win, window, sampler_cfg.near_only,
+                         randomized)
+    return with_full_range(k_full, edges, near, far, num_full, randomized)
+
 
 SAMPLERS = registry.Registry[SamplerSpec]("sampler")
 SAMPLERS.register("stratified", SamplerSpec())

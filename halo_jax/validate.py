@@ -90,11 +90,10 @@ def _check_auto(config, dspec):
         f"lo.encoding.auto=True: the frequency rule picks Lo-NeRF's P.E., and this config's "
         f"output stage {final!r} needs no Lo-NeRF radiance stage (data.kind="
         f"{config.data.kind!r}); set the frequencies by hand")
-  try:
-    view_pairs.kind_name(dspec.geometry, dspec.dynamic)
-  except ValueError as e:
-    raise ConfigError(f"lo.encoding.auto=True: {e} (data.kind={config.data.kind!r}); set "
-                      "lo.encoding.L and lo.encoding.scale by hand") from None
+  check(dspec.facts.pair_kind in view_pairs.PAIR_KINDS,
+        f"lo.encoding.auto=True: data.kind={config.data.kind!r} declares no view pairs "
+        f"for the frequency rule (pair kind {dspec.facts.pair_kind!r}); set "
+        "lo.encoding.L and lo.encoding.scale by hand")
 
 
 def validate(config) -> None:

@@ -34,7 +34,6 @@ from halo_jax import camera, camera_paths, evaluate, lightfield
 from halo_jax.datasets.base import Views
 from halo_jax.datasets.llff import NDCViews
 from halo_jax.datasets.stanford_lf import LightFieldViews
-from halo_jax.geometry import Geometry
 from halo_jax.registry import Registry
 
 NDC_NEAR = 1.0   # the near plane NDCViews.rays uses
@@ -67,15 +66,6 @@ class PairKind:
 
 
 PAIR_KINDS: Registry[PairKind] = Registry("pair kind")
-
-
-def kind_name(geometry: Geometry, dynamic: bool) -> str:
-  """The pair kind for a scene kind; ValueError for one with none."""
-  if geometry == Geometry.SPHERE:
-    return "orbit_time" if dynamic else "orbit"
-  if dynamic:
-    raise ValueError(f"no view pairs for dynamic scenes with {geometry.value} rays")
-  return {Geometry.NDC: "spiral", Geometry.TWO_PLANE: "uv"}[geometry]
 
 
 def _blank(n, h, w):
@@ -289,7 +279,9 @@ def make(render, dataset, num: int, size: int, shift_px: float, seed: int, chunk
      depth (warp_onto); 'steps': [num] (kind's units),
      'shift_px': [num] measured displacement of each pair; 'kind', 'unit'}.
   """
-  name = kind_name(dataset.geometry, dataset.dynamic)
+  name = dataset.facts.pair_kind
+  if not name:
+    raise ValueError("this scene kind declares no view pairs (SceneFacts.pair_kind)")
   kind = PAIR_KINDS.get(name)
   rng = np.random.default_rng(seed)
   base = kind.base(dataset, num, size, rng)

@@ -6,6 +6,7 @@ file records the holder's pid, host and command line, which a refused launch
 prints.
 """
 import contextlib
+import errno
 import fcntl
 import os
 import socket
@@ -16,6 +17,23 @@ LOCK_FILE = ".lock"
 
 class WorkdirLocked(RuntimeError):
   """Another live process holds the workdir."""
+
+
+class WorkdirUnwritable(RuntimeError):
+  """The workdir cannot be written: a read-only place, no permission, a full disk."""
+
+
+# Errors of the file system rather than of halo-jax: a full disk mid-run is
+# reported as one line too (user_errors).
+DISK_ERRNOS = frozenset({errno.ENOSPC, errno.EDQUOT, errno.EROFS, errno.EACCES, errno.EPERM})
+
+
+def unwritable(workdir, e: OSError) -> WorkdirUnwritable:
+  """The one-line error for a write that failed (under `workdir`, where known)."""
+  where = e.filename or workdir
+  where = f"{where}: cannot write" if where else "a write to disk failed"
+  return WorkdirUnwritable(f"{where} ({e.strerror}); free space there or use another "
+                           "--workdir (a relaunch resumes from the last checkpoint)")
 
 
 @contextlib.contextmanager
@@ -31,8 +49,11 @@ def hold(workdir: str):
     finally:
       _HELD[path][1] -= 1
     return
-  os.makedirs(os.path.dirname(path), exist_ok=True)
-  f = open(path, "a+")
+  try:
+    os.makedirs(os.path.dirname(path), exist_ok=True)
+    f = open(path, "a+")
+  except OSError as e:
+    raise unwritable(workdir, e) from None
   try:
     fcntl.flock(f, fcntl.LOCK_EX | fcntl.LOCK_NB)
   except BlockingIOError:

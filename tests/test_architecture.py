@@ -14,7 +14,7 @@ PACKAGE = pathlib.Path(__file__).resolve().parent.parent / "halo_jax"
 # Bottom to top: numerics, models and data, training, entry points. A module
 # may import modules of its own layer or below.
 LAYERS = (
-    {"registry", "geometry", "encoding", "camera", "rng", "samplers", "render", "raycast",
+    {"registry", "geometry", "rays", "encoding", "camera", "rng", "samplers", "render", "raycast",
      "losses", "metrics", "lightfield", "frequency", "plots", "provenance", "visibility",
      "tensorboard", "video", "config_files", "tables"},
     {"models", "ray_fields", "datasets", "checkpoint", "parallel", "evaluate", "defaults",
@@ -130,7 +130,8 @@ def test_modules_and_functions_stay_small():
 
 
 @pytest.mark.parametrize("registry, expected", [
-    (datasets.LOADERS, {"blender", "procedural", "dnerf", "llff", "stanford_lf"}),
+    (datasets.LOADERS, {"blender", "procedural", "dnerf", "llff", "stanford_lf", "capture",
+                        "capture_ff"}),
     (models.MODELS, {"nerf", "deform", "epi"}),
     (samplers.SAMPLERS, {"stratified", "hierarchical", "coarse_fine", "depth_guided", "joint"}),
     (terms.TERMS, {"consist", "empty", "occlusion", "lf_consist", "lf_nerf_consist", "lf_color",

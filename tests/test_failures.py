@@ -1,9 +1,12 @@
 """Runs that cannot progress stop with a reason; user errors are one line and
 exit 2; one process per workdir. (Config rules: tests/test_methods.py.)"""
+import errno
+import json
 import os
 import signal
 import subprocess
 import sys
+import time
 
 import jax
 import jax.numpy as jnp
@@ -11,7 +14,7 @@ import numpy as np
 import optax
 import pytest
 
-from halo_jax import defaults, pipeline, workdir_lock
+from halo_jax import defaults, pipeline, user_errors, workdir_lock
 from halo_jax.stages import loop
 from halo_jax.stages import step as train_step
 
@@ -105,6 +108,11 @@ def test_table_shows_a_dash_for_metrics_a_stage_does_not_have():
   assert hi.split()[-3:] == ["20.00", "0.500", "-"]
 
 
+# A Lo-NeRF small enough that a launch spends its time compiling, not training.
+TINY_LO = ["--config.lo.model.width=16", "--config.lo.model.depth=2", "--config.lo.batch_rays=64",
+           "--config.lo.microbatches=1", "--config.lo.sampler.num_samples=8",
+           "--config.data.test_views=r_0", "--config.budget_s=0", "--config.eval.lpips=False"]
+
 HOLD = ("import sys, time; from halo_jax import workdir_lock\n"
         "with workdir_lock.hold(sys.argv[1]):\n  print('held', flush=True); time.sleep(600)\n")
 
@@ -128,3 +136,53 @@ def test_a_second_launch_is_refused_and_kill_9_leaves_nothing_stale(config, tmp_
   with workdir_lock.hold(wd):  # the kernel released it with the process
     with workdir_lock.hold(wd):  # and one process may nest holds
       pass
+
+
+def test_an_unwritable_workdir_is_one_line_naming_it(tmp_path, capsys):
+  blocker = tmp_path / "a_file"
+  blocker.write_text("")
+  wd = str(blocker / "run")  # below a regular file: no folder can be made there, even by root
+  with pytest.raises(SystemExit) as e:
+    with user_errors.reported():
+      with workdir_lock.hold(wd):
+        pass
+  assert e.value.code == 2
+  err = capsys.readouterr().err
+  assert err.count("\n") == 1 and err.startswith(f"error: {wd}: cannot write")
+
+
+def test_a_full_disk_mid_run_is_one_line(capsys):
+  with pytest.raises(SystemExit) as e:
+    with user_errors.reported():
+      raise OSError(errno.ENOSPC, "No space left on device", "/w/hi/checkpoints/7")
+  assert e.value.code == 2
+  assert capsys.readouterr().err == (
+      "error: /w/hi/checkpoints/7: cannot write (No space left on device); free space there "
+      "or use another --workdir (a relaunch resumes from the last checkpoint)\n")
+
+
+@pytest.mark.slow
+def test_sigterm_saves_a_checkpoint_and_the_relaunch_logs_every_step_once(tmp_path):
+  """A scheduler's pre-emption: one line, exit 143, the step it stopped at
+  checkpointed; the same command again finishes with every step logged once."""
+  wd = tmp_path / "run"
+  args = ["--config.lo.steps=2000", "--config.lo.log_every=1",
+          "--config.lo.checkpoint_every=100000"]
+  cmd = [sys.executable, "-m", "halo_jax.cli.train", "--config=configs/default.py",
+         f"--workdir={wd}", "--config.stages=lo", *TINY_LO, *args]
+  proc = subprocess.Popen(cmd, cwd=REPO, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+                          text=True)
+  log = wd / "metrics.jsonl"
+  while not (log.exists() and log.stat().st_size) and proc.poll() is None:
+    time.sleep(0.1)
+  proc.send_signal(signal.SIGTERM)
+  _, err = proc.communicate(timeout=300)
+  assert proc.returncode == 143, err[-2000:]
+  lines = [line for line in err.replace("\r", "\n").splitlines() if line.startswith("error:")]
+  assert len(lines) == 1 and "Traceback" not in err
+  stopped = int(lines[0].split(" at step ")[1].split(",")[0])
+  assert 0 < stopped < 2000 and (wd / "lo" / "checkpoints" / str(stopped)).is_dir()
+  assert subprocess.run(cmd, cwd=REPO, capture_output=True, timeout=300).returncode == 0
+  steps = [r["step"] for r in map(json.loads, log.read_text().splitlines())
+           if r.get("stage") == "lo" and "loss" in r]
+  assert steps == list(range(1, 2001))

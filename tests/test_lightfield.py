@@ -11,9 +11,9 @@ import numpy as np
 import pytest
 
 from conftest import SHARED_DATA
-from halo_jax import datasets, lightfield, pipeline, render
+from halo_jax import datasets, lightfield, pipeline, registry, render
 from halo_jax.datasets import stanford_lf
-from halo_jax.stages import epi, radiance
+from halo_jax.stages import base, batches, epi, radiance, terms
 
 KNIGHTS = os.path.join(SHARED_DATA, "stanford_lf", "knights")
 
@@ -169,10 +169,12 @@ def joint_loss_grads(c, setting, values):
   parameters; the others start equal). Returns (dataset, data, {value: (aux,
   grads)})."""
   ds = datasets.load(c.data)
-  data = jax.device_put(epi.training_rays(ds.train))
   out = {}
   for v in values:
     c.hi.joint[setting] = v
+    ctx = base.StageContext(c, "hi", ds, "", {})
+    data = jax.device_put(terms.stage_data(ctx, c.hi, batches.pixels_of(ds.train, None),
+                                           terms.active_terms(c.hi)))
     model, ray_model = epi.models_from_config(c, "hi")
     loss = functools.partial(epi.loss_fn, model=model, ray_model=ray_model, cfg=c.hi,
                              theta_n=ds.near, theta_f=ds.far)
@@ -199,7 +201,7 @@ def test_random_rays_train_the_ray_field_only(tmp_path):
   gradient and leaves the radiance field's exactly as it was."""
   c = lf_config(write_light_field(str(tmp_path / "lf")))
   _, data, out = joint_loss_grads(c, "random_rays", (0, 16))
-  np.testing.assert_allclose(data["uv_box"], [[-1, -1], [1, 1]], atol=1e-6)
+  np.testing.assert_allclose(data.terms["lf_random"], [[-1, -1], [1, 1]], atol=1e-6)
   assert float(out[16][0]["consist_random"]) > 0
   assert_leaves_equal(out[0][1]["nerf"], out[16][1]["nerf"])
   assert max_leaf_difference(out[0][1]["ray"], out[16][1]["ray"]) > 1e-6
@@ -242,11 +244,12 @@ def test_nerf_consist_weight_trains_the_radiance_field_only(tmp_path):
   params = epi.init_params(model, ray_model, 0)
   def pull(nerf):
     k_idx, k_ren = jax.random.split(jax.random.PRNGKey(3))
-    idx = jax.random.randint(k_idx, (c.hi.batch_rays,), 0, data["rgb"].shape[0])
+    idx = jax.random.randint(k_idx, (c.hi.batch_rays,), 0, data.pixels.rgb.shape[0])
     keys = jax.random.split(k_ren, c.hi.batch_rays)
-    out = epi.render_rays(model, ray_model, c.hi, dict(params, nerf=nerf), data["uv"][idx],
-                          data["st"][idx], keys, radiance.joint_window(c.hi, 2), theta_n=ds.near,
-                          theta_f=ds.far, randomized=True, noise=c.hi.density_noise)
+    out = epi.render_rays(model, ray_model, c.hi, dict(params, nerf=nerf),
+                          data.pixels.rays.take(idx), keys, radiance.joint_window(c.hi, 2),
+                          theta_n=ds.near, theta_f=ds.far, randomized=True,
+                          noise=c.hi.density_noise)
     tau = render.normalized_depth(out["depth"], out["acc"])
     return 0.5 * jnp.mean((jax.lax.stop_gradient(out["tau_ray"]) - tau) ** 2)
   expected = jax.grad(pull)(params["nerf"])
@@ -376,11 +379,13 @@ def test_full_range_keeps_the_sample_count_and_rejects_an_empty_window():
   c.hi.joint.full_range = 0.5
   model, ray_model = epi.models_from_config(c, "hi")
   params = epi.init_params(model, ray_model, 0)
-  uv, st = jnp.zeros((5, 2)), jnp.linspace(-1, 1, 10).reshape(5, 2)
+  rays = epi.two_plane_rays(jnp.zeros((5, 2)), jnp.linspace(-1, 1, 10).reshape(5, 2))
   keys = jax.random.split(jax.random.PRNGKey(0), 5)
-  render_fn = functools.partial(epi.render_rays, model, ray_model, c.hi, params, uv, st, keys,
+  render_fn = functools.partial(epi.render_rays, model, ray_model, c.hi, params, rays, keys,
                                 0.1, theta_n=1.0, theta_f=2.0, randomized=True)
   assert render_fn()["weights"].shape == (5, 8)
   c.hi.joint.full_range = 0.9
   with pytest.raises(ValueError, match="full_range"):
     render_fn()
+  with pytest.raises(registry.ConfigError, match="hi.joint.full_range=0.9"):
+    epi.check(c, "hi", datasets.spec_of(c.data))

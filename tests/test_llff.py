@@ -126,3 +126,25 @@ def test_joint_scheme_smoke(tmp_path):
   c.stages = "hi"
   c.hi.steps = 6
   assert pipeline.run(c, wd)["hi"]["step"] == 6
+
+
+def test_regnerf_split_of_twenty_images():
+  """RegNeRF's rule worked by hand for fern's 20 images: 000, 008, 016 held
+  out; the 17 left indexed at round(linspace(0, 16, k)), halves to even."""
+  names = [f"{i:03d}" for i in range(20)]
+  assert datasets.spread_views(names, 3, 8) == ["001", "010", "019"]
+  assert datasets.spread_views(names, 6, 8) == ["001", "004", "007", "012", "015", "019"]
+  assert datasets.spread_views(names, 9, 8) == ["001", "003", "005", "007", "010", "012",
+                                                "014", "017", "019"]
+  with pytest.raises(datasets.DataError, match="17 views are left"):
+    datasets.spread_views(names, 18, 8)
+
+
+@pytest.mark.skipif(not os.path.isdir(os.path.join(SHARED_DATA, "nerf_llff_data", "fern")),
+                    reason="needs nerf_llff_data/fern")
+def test_fern_regnerf_3view_config_loads_its_split(monkeypatch):
+  from configs import llff as llff_cfg
+  monkeypatch.setenv("HALO_DATA", SHARED_DATA)
+  c = llff_cfg.get_config("fern_3view_cpu_halo")
+  ds = datasets.load(c.data)
+  assert ds.train.names == ("001", "010", "019") and ds.test.names == ("000", "008", "016")

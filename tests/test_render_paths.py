@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 from halo_jax import camera, camera_paths, pipeline, video
+from halo_jax.datasets import base
 from halo_jax.datasets.base import DataError, Dataset, Views
 from halo_jax.datasets.llff import NDCViews
 from halo_jax.datasets.stanford_lf import LightFieldViews
@@ -20,7 +21,8 @@ def _sphere_dataset(dynamic=False):
   times = np.array([0.0, 0.5, 1.0], np.float32) if dynamic else None
   v = Views(np.zeros((3, 8, 10, 3), np.float32), c2w.astype(np.float32), 12.0,
             ("a", "b", "c"), times)
-  return Dataset(v, v, 2.0, 6.0, 4.0, True, Geometry.SPHERE)
+  return Dataset(v, v, 2.0, 6.0, 4.0, True, Geometry.SPHERE,
+                 facts=base.ORBIT_TIME if dynamic else base.ORBIT)
 
 
 def test_orbit_first_and_last_poses():
@@ -39,7 +41,7 @@ def test_orbit_first_and_last_poses():
 
 def test_dynamic_paths_run_time_from_0_to_1():
   ds = _sphere_dataset(dynamic=True)
-  assert camera_paths.kinds(ds.geometry, ds.dynamic)[0] == "orbit_time"
+  assert ds.facts.path_kinds[0] == "orbit_time"
   sweep = camera_paths.views_for("time", ds, 5)
   np.testing.assert_allclose(sweep.times, [0, 0.25, 0.5, 0.75, 1.0])
   assert np.all(sweep.c2w == ds.test.c2w[0])
@@ -65,7 +67,7 @@ def test_spiral_starts_at_its_radius_and_stays_orthonormal():
   assert np.all(poses[:, 2, 2] > 0.9)  # still looking down -z, as the cameras do
   ds = Dataset(NDCViews(np.zeros((6, 8, 10, 3), np.float32), c2w, 12.0, tuple("abcdef")),
                NDCViews(np.zeros((6, 8, 10, 3), np.float32), c2w, 12.0, tuple("abcdef")),
-               0.0, 1.0, 0.0, False, Geometry.NDC, depth_bounds=bounds)
+               0.0, 1.0, 0.0, False, Geometry.NDC, depth_bounds=bounds, facts=base.SPIRAL)
   views = camera_paths.views_for("spiral", ds, 8)
   assert isinstance(views, NDCViews) and views.rays()[0].shape == (8, 8, 10, 3)
 
@@ -73,7 +75,7 @@ def test_spiral_starts_at_its_radius_and_stays_orthonormal():
 def test_uv_ellipse_through_the_training_offsets():
   uv = np.array([[-0.5, -0.5], [0.5, -0.5], [-0.5, 0.5], [0.5, 0.5]], np.float32)
   lf = LightFieldViews(np.zeros((4, 8, 10, 3), np.float32), uv, ("a", "b", "c", "d"))
-  ds = Dataset(lf, lf, -0.1, 0.1, 0.0, False, Geometry.TWO_PLANE)
+  ds = Dataset(lf, lf, -0.1, 0.1, 0.0, False, Geometry.TWO_PLANE, facts=base.UV_PLANE)
   views = camera_paths.views_for("uv", ds, 4)
   np.testing.assert_allclose(views.uv, [[0.5, 0], [0, 0.5], [-0.5, 0], [0, -0.5]], atol=1e-6)
   with pytest.raises(DataError, match=r"--path='orbit': this scene \(two_plane rays\) takes"):

@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 
 from halo_jax import camera, view_pairs
+from halo_jax.datasets import base
 from halo_jax.datasets.base import Dataset, Views
 from halo_jax.datasets.llff import NDCViews
 from halo_jax.datasets.stanford_lf import LightFieldViews
@@ -56,7 +57,8 @@ def _train_views(n=6, h=40, w=40, focal=50.0, times=None):
 def test_orbit_pairs_reach_the_pixel_baseline(dynamic):
   times = np.linspace(0, 1, 6).astype(np.float32) if dynamic else None
   train = _train_views(times=times)
-  ds = Dataset(train, train, 2.0, 6.0, 4.0)
+  ds = Dataset(train, train, 2.0, 6.0, 4.0,
+               facts=base.ORBIT_TIME if dynamic else base.ORBIT)
   out = view_pairs.make(_render_rays_sphere, ds, num=4, size=32, shift_px=1.5, seed=0,
                         chunk=4096)
   assert out["kind"] == ("orbit_time" if dynamic else "orbit")
@@ -70,7 +72,7 @@ def test_uv_pairs_move_by_the_closed_form_step():
   uv = np.array([[-1, -1], [1, -1], [-1, 1], [1, 1]], np.float32) * 0.5
   train = LightFieldViews(np.zeros((n, h, w, 3), np.float32), uv, tuple("abcd"))
   theta = 1.3
-  ds = Dataset(train, train, 1.2, 1.4, 0.0, False, Geometry.TWO_PLANE)
+  ds = Dataset(train, train, 1.2, 1.4, 0.0, False, Geometry.TWO_PLANE, facts=base.UV_PLANE)
   tau = (theta - 1.2) / 0.2
 
   def render(o, d, t=None):
@@ -94,7 +96,7 @@ def test_spiral_pairs_reach_the_pixel_baseline():
   c2w[:, :3, 3] = rng.normal(0, 0.5, (n, 3))
   train = NDCViews(np.zeros((n, 30, 40, 3), np.float32), c2w, 35.0, tuple(map(str, range(n))))
   ds = Dataset(train, train, 0.0, 1.0, 0.0, False, Geometry.NDC,
-               depth_bounds=np.tile([[2.0, 8.0]], (n, 1)))
+               depth_bounds=np.tile([[2.0, 8.0]], (n, 1)), facts=base.SPIRAL)
 
   def render(o, d, t=None):
     """A fronto-parallel wall at world z = -4, in NDC depth (camera near z = 0):
@@ -110,9 +112,18 @@ def test_spiral_pairs_reach_the_pixel_baseline():
   np.testing.assert_allclose(out["shift_px"], 1.0, rtol=0.1)
 
 
-def test_no_pairs_for_a_dynamic_light_field():
-  with pytest.raises(ValueError, match="no view pairs for dynamic scenes"):
-    view_pairs.kind_name(Geometry.TWO_PLANE, True)
+def test_a_scene_kind_without_view_pairs_is_refused():
+  train = _train_views()
+  ds = Dataset(train, train, 2.0, 6.0, 4.0, facts=base.SceneFacts("", ("orbit",), "t"))
+  with pytest.raises(ValueError, match="declares no view pairs"):
+    view_pairs.make(_render_rays_sphere, ds, num=2, size=16, shift_px=1.0, seed=0, chunk=256)
+
+
+def test_every_scene_kind_declares_known_pairs_and_paths():
+  from halo_jax import datasets
+  for name, spec in datasets.LOADERS.items():
+    assert spec.facts.pair_kind in view_pairs.PAIR_KINDS, name
+    assert spec.facts.path_kinds and spec.facts.depth_units, name
 
 
 def test_warping_b_onto_a_removes_what_the_camera_move_explains():
@@ -122,7 +133,7 @@ def test_warping_b_onto_a_removes_what_the_camera_move_explains():
   h, w, n, theta = 16, 24, 3, 1.2
   uv = np.array([[-1, -1], [1, -1], [-1, 1], [1, 1]], np.float32) * 0.5
   train = LightFieldViews(np.zeros((4, h, w, 3), np.float32), uv, tuple("abcd"))
-  ds = Dataset(train, train, 1.1, 1.3, 0.0, False, Geometry.TWO_PLANE)
+  ds = Dataset(train, train, 1.1, 1.3, 0.0, False, Geometry.TWO_PLANE, facts=base.UV_PLANE)
 
   def render(o, d, t=None):
     del t

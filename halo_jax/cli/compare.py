@@ -16,15 +16,15 @@ retrained: their final states are in DIR/<method>).
 import json
 import os
 
-from absl import app, flags, logging
+from absl import app, flags
 import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # pylint: disable=g-import-not-at-top
 from ml_collections import config_flags
 
-from halo_jax import (config_files, datasets, methods, pipeline, runs, tables, user_errors,
-                      workdir_lock)
+from halo_jax import config_files, datasets, methods, pipeline, runs, tables
+from halo_jax.cli import run_in_workdir
 
 FLAGS = flags.FLAGS
 
@@ -96,10 +96,7 @@ def write_report(results, workdir, n_test):
 
 def main(argv):
   del argv
-  logging.set_verbosity(logging.WARNING)
-  # one launch per workdir; bad input is one line and exit 2, not a traceback
-  with user_errors.reported(), workdir_lock.hold(FLAGS.workdir):
-    run(FLAGS.config)
+  run_in_workdir(run, FLAGS.config, FLAGS.workdir)
 
 
 def run(config):

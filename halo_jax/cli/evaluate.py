@@ -84,7 +84,7 @@ def run_evaluation(workdir, stage=None, split="test", views="", out=None, data_r
   predictions.write(out, vs.names, rgb, vs.images, r["depth"], r["acc"], near, far, {
       "method": run.config.get("method", "halo"), "stage": run.stage, "split": split,
       "scene": {"kind": run.config.data.kind, "root": run.config.data.root},
-      "depth_units": predictions.DEPTH_UNITS[run.dataset.geometry.value],
+      "depth_units": run.dataset.facts.depth_units,
       "provenance": provenance.collect()})
   with open(os.path.join(out, "metrics.json"), "w") as f:
     json.dump(result, f, indent=1)

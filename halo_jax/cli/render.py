@@ -40,7 +40,7 @@ def render_path(workdir, stage=None, path=None, frames=60, fps=20.0, out=None,
   """Renders and writes the videos; returns {'color', 'depth', 'acc': file, 'frames': n}."""
   run = restore.load(workdir, stage, data_root)
   ds = run.dataset
-  path = path or camera_paths.kinds(ds.geometry, ds.dynamic)[0]
+  path = path or ds.facts.path_kinds[0]
   views = camera_paths.views_for(path, ds, frames, downscale)
   r = evaluate.render_views(run.render, views, run.config.eval.chunk)
   out = out or os.path.join(workdir, "render")

@@ -16,11 +16,11 @@ import itertools
 import json
 import os
 
-from absl import app, flags, logging
+from absl import app, flags
 from ml_collections import config_flags
 
-from halo_jax import (config_files, datasets, pipeline, plots, stages, tables, tuning,
-                      user_errors, workdir_lock)
+from halo_jax import config_files, datasets, pipeline, plots, stages, tables, tuning
+from halo_jax.cli import run_in_workdir
 from halo_jax.stages import radiance
 
 FLAGS = flags.FLAGS
@@ -122,10 +122,7 @@ def report(rows, workdir):
 
 def main(argv):
   del argv
-  logging.set_verbosity(logging.WARNING)
-  # one launch per workdir; bad input is one line and exit 2, not a traceback
-  with user_errors.reported(), workdir_lock.hold(FLAGS.workdir):
-    run(FLAGS.config)
+  run_in_workdir(run, FLAGS.config, FLAGS.workdir)
 
 
 def run(config):

@@ -7,32 +7,24 @@ import os
 from typing import Callable
 
 from halo_jax import registry
-from halo_jax.datasets import blender, dnerf, llff, procedural, stanford_lf
-from halo_jax.datasets.base import DataError, Dataset, Views, camera_radius
+from halo_jax.datasets import blender, capture, dnerf, llff, procedural, stanford_lf
+from halo_jax.datasets.base import (ORBIT, ORBIT_TIME, SPIRAL, UV_PLANE, DataError, Dataset,
+                                    SceneFacts, Views, camera_radius, spread_views, view_names)
 from halo_jax.geometry import Geometry
 
 
 @dataclasses.dataclass(frozen=True)
 class DatasetSpec:
-  """load: (data config, workdir) -> Dataset; geometry of its rays; dynamic:
-  its frames carry capture times."""
+  """load: (data config, workdir) -> Dataset; geometry of its rays; facts:
+  what its rays mean (base.SceneFacts); dynamic: its frames carry capture
+  times."""
   load: Callable
   geometry: Geometry
+  facts: SceneFacts
   dynamic: bool = False
 
 
 LOADERS = registry.Registry[DatasetSpec]("dataset")
-
-
-def _names(spec, split_names):
-  """A view list from the config: a list/tuple of names, 'all', or 'every:K'."""
-  if spec in (None, "all"):
-    return None
-  if isinstance(spec, str) and spec.startswith("every:"):
-    return list(split_names)[::int(spec.split(":")[1])]
-  if isinstance(spec, str):
-    return [s for s in spec.split(",") if s]
-  return list(spec)
 
 
 def _root(cfg, example):
@@ -60,8 +52,8 @@ def _load_llff(cfg, workdir="") -> Dataset:
   """A forward-facing LLFF scene in NDC: near 0, far 1 (t along NDC rays)."""
   root = _root(cfg, "/path/to/nerf_llff_data/<scene>")
   names = llff.split_names(root, cfg.factor)
-  train = llff.load_views(root, cfg.factor, _names(cfg.train_views, names) or names)
-  test = llff.load_views(root, cfg.factor, _names(cfg.test_views, names) or names)
+  train = llff.load_views(root, cfg.factor, view_names(cfg.train_views, names) or names)
+  test = llff.load_views(root, cfg.factor, view_names(cfg.test_views, names) or names)
   return Dataset(train, test, 0.0, 1.0, 0.0, bool(cfg.white_background), Geometry.NDC,
                  depth_bounds=llff.read_poses(root)[3])
 
@@ -73,8 +65,8 @@ def _blender_split_names(root, split):
 
 def _load_posed(cfg, root, module, split_names) -> Dataset:
   """Blender-layout scenes (static or with times): cameras around the object."""
-  train_names = _names(cfg.train_views, split_names(root, "train"))
-  test_names = _names(cfg.test_views, split_names(root, cfg.test_split))
+  train_names = view_names(cfg.train_views, split_names(root, "train"))
+  test_names = view_names(cfg.test_views, split_names(root, cfg.test_split))
   white = bool(cfg.white_background)
   train = module.load_views(root, "train", cfg.factor, train_names, white)
   test = module.load_views(root, cfg.test_split, cfg.factor, test_names, white)
@@ -104,11 +96,14 @@ def _load_procedural(cfg, workdir=""):
   return _load_posed(cfg, root, blender, _blender_split_names)
 
 
-LOADERS.register("blender", DatasetSpec(_load_blender, Geometry.SPHERE))
-LOADERS.register("procedural", DatasetSpec(_load_procedural, Geometry.SPHERE))
-LOADERS.register("dnerf", DatasetSpec(_load_dnerf, Geometry.SPHERE, dynamic=True))
-LOADERS.register("llff", DatasetSpec(_load_llff, Geometry.NDC))
-LOADERS.register("stanford_lf", DatasetSpec(_load_light_field, Geometry.TWO_PLANE))
+LOADERS.register("blender", DatasetSpec(_load_blender, Geometry.SPHERE, ORBIT))
+LOADERS.register("procedural", DatasetSpec(_load_procedural, Geometry.SPHERE, ORBIT))
+LOADERS.register("dnerf", DatasetSpec(_load_dnerf, Geometry.SPHERE, ORBIT_TIME, dynamic=True))
+LOADERS.register("llff", DatasetSpec(_load_llff, Geometry.NDC, SPIRAL))
+LOADERS.register("stanford_lf", DatasetSpec(_load_light_field, Geometry.TWO_PLANE, UV_PLANE))
+# your own photos (datasets/capture.py): 360-degree, and forward-facing in NDC
+LOADERS.register("capture", DatasetSpec(capture.load_sphere, Geometry.SPHERE, ORBIT))
+LOADERS.register("capture_ff", DatasetSpec(capture.load_forward, Geometry.NDC, SPIRAL))
 
 
 def spec_of(data_cfg) -> DatasetSpec:
@@ -118,8 +113,10 @@ def spec_of(data_cfg) -> DatasetSpec:
 
 def load(cfg, workdir: str = "") -> Dataset:
   """Loads the scene `cfg.kind` (a LOADERS entry) as the data config describes."""
-  return spec_of(cfg).load(cfg, workdir)
+  spec = spec_of(cfg)
+  return dataclasses.replace(spec.load(cfg, workdir), facts=spec.facts)
 
 
-__all__ = ["DataError", "Dataset", "DatasetSpec", "LOADERS", "Views", "load", "spec_of",
-           "blender", "dnerf", "llff", "procedural", "stanford_lf"]
+__all__ = ["DataError", "Dataset", "DatasetSpec", "LOADERS", "SceneFacts", "Views", "load", "spread_views",
+           "spec_of",
+           "blender", "capture", "dnerf", "llff", "procedural", "stanford_lf"]

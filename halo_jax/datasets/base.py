@@ -51,6 +51,32 @@ class Views:
 
 
 @dataclasses.dataclass(frozen=True)
+class SceneFacts:
+  """What a scene kind's rays mean, declared by its registry entry
+  (datasets.LOADERS) for the code that moves cameras or reads depth.
+
+  Attributes:
+    pair_kind: the view_pairs.PAIR_KINDS entry the frequency rule renders
+      nearby views with ('' for none: the rule cannot run on this kind).
+    path_kinds: camera_paths names the render command takes, the default first.
+    depth_units: what a rendered depth measures (written beside predictions).
+  """
+  pair_kind: str
+  path_kinds: Tuple[str, ...]
+  depth_units: str
+
+
+_DISTANCE = "distance along the unit-norm ray (scene units)"
+# Cameras round an object: orbits (and, with times, a fixed camera through time).
+ORBIT = SceneFacts("orbit", ("orbit",), _DISTANCE)
+ORBIT_TIME = SceneFacts("orbit_time", ("orbit_time", "time", "orbit"), _DISTANCE)
+# Forward-facing cameras in NDC: spirals in front of the scene.
+SPIRAL = SceneFacts("spiral", ("spiral",), "NDC ray parameter t in [0, 1]")
+# A two-plane light field: moves on the camera plane.
+UV_PLANE = SceneFacts("uv", ("uv",), "EPI ray parameter tau in [0, 1]")
+
+
+@dataclasses.dataclass(frozen=True)
 class Dataset:
   """Training and held-out views of one scene plus its bounds.
 
@@ -66,6 +92,7 @@ class Dataset:
     depth_bounds: NDC: [N, 2] near / far scene depth of every camera of the
       scene (LLFF's poses_bounds, scaled as the poses are), which place its
       spiral paths; else None.
+    facts: its kind's SceneFacts (datasets.load sets its registry entry's).
   """
   train: Views
   test: Views
@@ -75,6 +102,7 @@ class Dataset:
   white_background: bool = True
   geometry: Geometry = Geometry.SPHERE
   depth_bounds: Optional[np.ndarray] = None
+  facts: SceneFacts = ORBIT
 
   @property
   def dynamic(self) -> bool:
@@ -85,3 +113,31 @@ class Dataset:
 def camera_radius(c2w) -> float:
   return float(np.linalg.norm(np.asarray(c2w)[:, :3, 3], axis=-1).mean())
 
+
+def view_names(spec, split_names):
+  """A view list from the config: a list/tuple of names, 'all', 'every:K'
+  (every K-th view from the first), or 'spread:N/K' (N views spread evenly
+  over the ones 'every:K' leaves out: RegNeRF's few-shot split, see
+  spread_views)."""
+  if spec in (None, "all"):
+    return None
+  if isinstance(spec, str) and spec.startswith("every:"):
+    return list(split_names)[::int(spec.split(":")[1])]
+  if isinstance(spec, str) and spec.startswith("spread:"):
+    num, _, hold = spec.split(":")[1].partition("/")
+    return spread_views(list(split_names), int(num), int(hold))
+  if isinstance(spec, str):
+    return [s for s in spec.split(",") if s]
+  return list(spec)
+
+
+def spread_views(names, num: int, hold: int):
+  """RegNeRF's few-shot training views (google-research/regnerf,
+  internal/datasets.py, LLFF): every `hold`-th view is held out, and `num`
+  of the rest are taken at round(linspace(0, len - 1, num)), Python's round
+  (halves to even) as there."""
+  rest = [n for i, n in enumerate(names) if i % hold != 0]
+  if not 0 < num <= len(rest):
+    raise DataError(f"'spread:{num}/{hold}': {len(rest)} views are left after holding out "
+                    f"every {hold}-th of {len(names)}")
+  return [rest[round(float(i))] for i in np.linspace(0, len(rest) - 1, num)]

@@ -52,8 +52,11 @@ def _downscale(image: np.ndarray, factor: int, path: str) -> np.ndarray:
   return image.reshape(h // factor, factor, w // factor, factor, -1).mean((1, 3))
 
 
-def load_image(path: str, factor: int, white_background: bool) -> np.ndarray:
-  """Reads an RGB(A) image as float32 [H, W, 3], downscaled and composited."""
+def load_image(path: str, factor: int, white_background: bool,
+               crop_to_factor: bool = False) -> np.ndarray:
+  """Reads an RGB(A) image as float32 [H, W, 3], downscaled and composited.
+  crop_to_factor: drop the last rows and columns that `factor` does not
+  divide (moves the principal point by under half a downscaled pixel)."""
   if not os.path.exists(path):
     raise DataError(f"{path}: image file not found")
   try:
@@ -63,6 +66,8 @@ def load_image(path: str, factor: int, white_background: bool) -> np.ndarray:
   img = np.asarray(img, np.float32) / (65535.0 if img.dtype == np.uint16 else 255.0)
   if img.ndim == 2:
     img = np.repeat(img[..., None], 3, -1)
+  if crop_to_factor:
+    img = img[:img.shape[0] - img.shape[0] % factor, :img.shape[1] - img.shape[1] % factor]
   img = _downscale(img, factor, path)
   if img.shape[-1] == 4:
     rgb, alpha = img[..., :3], img[..., 3:]
@@ -100,22 +105,8 @@ def load_views(root: str, split: str, factor: int = 1,
       (h, w), (h0, w0) = img.shape[:2], images[0].shape[:2]
       raise DataError(f"{img_path}: size {w * factor}x{h * factor} differs from "
                       f"{w0 * factor}x{h0 * factor} of the other views")
-    try:
-      pose = np.asarray(fr["transform_matrix"], np.float64)
-    except (TypeError, ValueError):
-      pose = np.full((0,), np.nan)
-    if pose.shape != (4, 4) or not np.all(np.isfinite(pose)):
-      raise DataError(f"{path}: 'transform_matrix' of {n} is not a finite 4x4 matrix")
-    rot = pose[:3, :3]
-    if not np.allclose(rot @ rot.T, np.eye(3), atol=1e-3):
-      raise DataError(f"{path}: 'transform_matrix' of {n} is not rigid (R R^T != I)")
-    if np.linalg.det(rot) < 0:
-      raise DataError(f"{path}: 'transform_matrix' of {n} is not rigid (a reflection, det R < 0)")
-    if not np.allclose(pose[3], [0, 0, 0, 1]):
-      raise DataError(f"{path}: 'transform_matrix' of {n} has last row {pose[3].tolist()}, "
-                      "not [0, 0, 0, 1]")
     images.append(img)
-    poses.append(pose)
+    poses.append(rigid_pose(fr["transform_matrix"], path, n))
     times.append(_frame_time(fr, path, n))
   width = images[0].shape[1]
   focal = 0.5 * width / np.tan(0.5 * float(meta["camera_angle_x"]))
@@ -126,6 +117,26 @@ def load_views(root: str, split: str, factor: int = 1,
   times = np.asarray(times, np.float32) if all(has_time) else None
   return Views(np.stack(images), np.stack(poses).astype(np.float32), float(focal), tuple(names),
                times)
+
+
+def rigid_pose(matrix, path, name) -> np.ndarray:
+  """A frame's 'transform_matrix' as a rigid camera-to-world [4, 4]; DataError
+  naming the file and the frame otherwise."""
+  try:
+    pose = np.asarray(matrix, np.float64)
+  except (TypeError, ValueError):
+    pose = np.full((0,), np.nan)
+  if pose.shape != (4, 4) or not np.all(np.isfinite(pose)):
+    raise DataError(f"{path}: 'transform_matrix' of {name} is not a finite 4x4 matrix")
+  rot = pose[:3, :3]
+  if not np.allclose(rot @ rot.T, np.eye(3), atol=1e-3):
+    raise DataError(f"{path}: 'transform_matrix' of {name} is not rigid (R R^T != I)")
+  if np.linalg.det(rot) < 0:
+    raise DataError(f"{path}: 'transform_matrix' of {name} is not rigid (a reflection, det R < 0)")
+  if not np.allclose(pose[3], [0, 0, 0, 1]):
+    raise DataError(f"{path}: 'transform_matrix' of {name} has last row {pose[3].tolist()}, "
+                    "not [0, 0, 0, 1]")
+  return pose
 
 
 def _frame_time(frame, path, name):

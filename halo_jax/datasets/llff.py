@@ -69,14 +69,22 @@ def read_poses(root: str):
   hwf = poses[0, :, 4]
   # [down, right, back] -> [right, up, back]
   c2w = np.concatenate([poses[:, :, 1:2], -poses[:, :, 0:1], poses[:, :, 2:4]], 2)
+  c2w, bounds = normalize_forward_facing(c2w, bounds)
+  return c2w, float(hwf[2]), (int(hwf[0]), int(hwf[1])), bounds
+
+
+def normalize_forward_facing(c2w, bounds):
+  """NeRF's LLFF normalisation of OpenGL camera-to-world [N, 3 or 4, 4] and
+  scene depth bounds [N, 2]: scaled so the nearest bound is 1 / BD_FACTOR,
+  recentred on the average pose. Returns ([N, 4, 4], [N, 2])."""
+  c2w = np.array(c2w[:, :3, :4], np.float64)
   scale = 1.0 / (bounds.min() * BD_FACTOR)
   c2w[:, :, 3] *= scale
   bounds = bounds * scale
   bottom = np.broadcast_to([0, 0, 0, 1.0], (c2w.shape[0], 1, 4))
   c2w = np.concatenate([c2w, bottom], 1)
   avg = np.concatenate([average_pose(c2w), [[0, 0, 0, 1.0]]], 0)
-  c2w = np.linalg.inv(avg) @ c2w
-  return c2w, float(hwf[2]), (int(hwf[0]), int(hwf[1])), bounds
+  return np.linalg.inv(avg) @ c2w, bounds
 
 
 def image_files(root: str, factor: int):

@@ -8,6 +8,8 @@ of radius 4.03 as in the Blender scenes. SCENES:
 
   spheres   two textured spheres on a checkered slab; training cameras random
             on the upper hemisphere, test cameras on a 30-degree orbit.
+  textured  a sphere and two boxes covered in random-coloured cells, cameras
+            all round: texture for structure-from-motion to match.
   lattice   what few views underconstrain: eight thin banded rods (radius
             0.035) and thin cross-bars around a small finely checkered core,
             in a large empty volume (the object fills a quarter of the
@@ -136,6 +138,24 @@ def _bar_tex(p):
   return s * np.array([0.2, 0.6, 0.3]) + (1 - s) * np.array([0.95, 0.95, 0.9])
 
 
+def _cells(p, size):
+  """A colour per cube of side `size` that `p` [..., 3] falls in, random-looking
+  (a hash of the cell's integer coordinates): texture that feature matching
+  can tell apart everywhere."""
+  cell = np.floor(p / size)
+  h = np.sin(cell @ np.array([[12.9898, 4.1414, 7.31], [78.233, 2.71, 1.93], [37.719, 9.17, 5.3]]))
+  return 0.15 + 0.8 * (h * 43758.5453 % 1.0)
+
+
+def _textured():
+  cells = lambda p: _cells(p, 0.08)
+  return (sphere((0.0, 0.0, 0.2), 0.7, lambda lon, lat: _cells(
+              np.stack([np.cos(lat) * np.cos(lon), np.cos(lat) * np.sin(lon), np.sin(lat)], -1),
+              0.12)),
+          box((0.55, -1.1, -0.75), (1.15, -0.5, 0.1), cells),
+          box((-1.5, -1.5, -0.9), (1.5, 1.5, -0.75), cells))
+
+
 def _lattice():
   rods = [tube(0.95 * np.cos(a), 0.95 * np.sin(a), 0.035, -0.9, 0.9, _rod_tex)
           for a in np.linspace(0, 2 * np.pi, 8, endpoint=False)]
@@ -156,6 +176,9 @@ SCENES = {
                       sphere((0.85, -0.75, -0.25), 0.4, _bands_tex),
                       box((-1.3, -1.3, -0.75), (1.3, 1.3, -0.6), _slab_tex))),
     "lattice": Scene(_lattice(), train_azimuth=(-90.0, 90.0)),
+    # dense random texture everywhere: what structure-from-motion needs to
+    # recover its cameras (the capture loader's test)
+    "textured": Scene(_textured()),
 }
 
 

@@ -16,12 +16,6 @@ import numpy as np
 
 from halo_jax import video
 
-# What 'depth' is for each ray geometry (Geometry.value).
-DEPTH_UNITS = {"sphere": "distance along the unit-norm ray (scene units)",
-               "ndc": "NDC ray parameter t in [0, 1]",
-               "two_plane": "EPI ray parameter tau in [0, 1]"}
-
-
 def write(out_dir, names, rgb, gt, depth, acc, near, far, info) -> None:
   """names [V]; rgb, gt [V, H, W, 3] floats in [0, 1]; depth, acc [V, H, W];
   info: the info.json fields beyond the layout's own."""

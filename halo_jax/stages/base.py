@@ -3,7 +3,7 @@
 A stage config names its trainer in `kind`; the trainer says which finished
 stages it reads (`requires`), which ray geometries it supports, how to build
 parameters shaped like its output (to restore a finished stage), and how to
-train. The pipeline (stages/pipeline.py) only ever talks to this interface.
+train. The pipeline (halo_jax/pipeline.py) only ever talks to this interface.
 """
 import dataclasses
 from typing import Any, Callable, Dict, Optional

@@ -5,9 +5,34 @@ all views, or (`one_image`) over the pixels of one random view per step, as
 the original NeRF does; for the first `precrop_steps` steps only from the
 centre crop.
 """
+from typing import Any, NamedTuple, Optional
+
 import jax
 import jax.numpy as jnp
 import numpy as np
+
+from halo_jax.rays import Pixels, Rays
+
+
+class StageData(NamedTuple):
+  """What a radiance or light-field stage's step reads on device: its
+  training pixels, each active loss term's prepared arrays under the term's
+  name (terms.Term.prepare), and a frozen guide's parameters (or None)."""
+  pixels: Pixels
+  terms: dict
+  guide: Any = None
+
+
+def pixels_of(views, precrop_frac: Optional[float]) -> Pixels:
+  """All pixels of `views` as flat training rays (numpy), with the arrays for
+  drawing from the centre crop (index_data) unless precrop_frac is None."""
+  o, d = views.rays()
+  n, h, w = views.images.shape[:3]
+  times = views.ray_times()
+  rays = Rays(o.reshape(-1, 3), d.reshape(-1, 3),
+              None if times is None else np.ascontiguousarray(times.reshape(-1, 1)))
+  index = None if precrop_frac is None else index_data(n, h, w, precrop_frac)
+  return Pixels(rays, views.images.reshape(-1, 3), index)
 
 
 def crop_pixels(height: int, width: int, frac: float) -> np.ndarray:

@@ -20,13 +20,13 @@ import os
 import jax
 import jax.numpy as jnp
 import numpy as np
+
 from halo_jax import (evaluate, geometry, lightfield, losses, metrics, models, parallel,
                       ray_fields, raycast, registry, render, rng, samplers)
+from halo_jax.rays import Batch, Rays
 from halo_jax.stages import base, batches, loop, microbatch, terms
 from halo_jax.stages.radiance import joint_window
 from halo_jax.stages.state import StageState, stage_dir
-
-SAMPLER_KINDS = ("stratified", "joint")
 
 
 def requires(config, name):
@@ -35,16 +35,22 @@ def requires(config, name):
 
 def check(config, name, dspec):
   cfg = config[name]
-  registry.check(cfg.sampler.kind in SAMPLER_KINDS,
-                 f"{name}.sampler.kind={cfg.sampler.kind!r}: light fields use one of "
-                 f"{list(SAMPLER_KINDS)}")
+  spec = samplers.SAMPLERS.get(cfg.sampler.kind, f"{name}.sampler.kind")
+  kinds = [k for k, v in samplers.SAMPLERS.items() if geometry.Geometry.TWO_PLANE in v.geometries]
+  registry.check(geometry.Geometry.TWO_PLANE in spec.geometries,
+                 f"{name}.sampler.kind={cfg.sampler.kind!r}: light fields use one of {kinds}")
   registry.check(cfg.model.get("kind") == "epi",
                  f"{name}.model.kind={cfg.model.get('kind')!r}: the light-field stage "
                  "renders an 'epi' field")
   terms.check_geometries(cfg, name, dspec, f"data.kind={config.data.kind!r} "
                          f"({dspec.geometry.value} rays)")
+  n_full = full_range_samples(cfg)
+  registry.check(n_full == 0 or cfg.sampler.num_samples - n_full - 1 >= 1,
+                 f"{name}.joint.full_range={cfg.joint.full_range}: its {n_full} full-range "
+                 f"samples leave no window samples of {name}.sampler.num_samples="
+                 f"{cfg.sampler.num_samples}")
   # The EPI field's Fourier features have no ordered bands to open one by one.
-  registry.check(cfg.get("freq_reg", {}).get("end", 0.0) == 0.0,
+  registry.check(cfg.freq_reg.end == 0.0,
                  f"{name}.freq_reg.end={cfg.freq_reg.end!r}: the light-field stage has no "
                  "P.E. bands to schedule (FreeNeRF's mask); set it to 0")
 
@@ -60,61 +66,64 @@ def init_params(model, ray_model, seed):
 
 def models_from_config(config, name):
   cfg = config[name]
-  joint = cfg.sampler.kind == "joint"
-  ray_model = ray_fields.epi_ray_field_from_config(cfg.joint) if joint else None
+  trains_guide = samplers.SAMPLERS.get(cfg.sampler.kind, f"{name}.sampler.kind").trains_guide
+  ray_model = ray_fields.epi_ray_field_from_config(cfg.joint) if trains_guide else None
   return models.nerf_from_config(config, name), ray_model
 
 
-def render_rays(model, ray_model, cfg, params, uv, st, key, alpha, *, theta_n, theta_f,
+def _sampler(cfg):
+  return samplers.SAMPLERS.get(cfg.sampler.kind, "sampler.kind")
+
+
+def full_range_samples(cfg) -> int:
+  """The guided sampler's samples spread over the whole range
+  (joint.full_range of sampler.num_samples); 0 for an unguided one."""
+  if not _sampler(cfg).guided:
+    return 0
+  return int(round(cfg.joint.full_range * cfg.sampler.num_samples))
+
+
+def ray_field_tau(ray_model, params, uv, st):
+  """The ray field's tau_ray [R] on rays uv, st [R, 2], and its colour rgb_ray
+  [R, 3] where it has a colour head (else None)."""
+  out = ray_model.apply({"params": params}, jnp.concatenate([uv, st], -1))
+  return out if ray_model.color else (out, None)
+
+
+def render_rays(model, ray_model, cfg, params, rays: Rays, key, alpha, *, theta_n, theta_f,
                 randomized, noise=0.0):
-  """Renders two-plane rays.
+  """Renders two-plane rays with the stage's sampler.
 
   Args:
-    model, ray_model: EPINeRF and EPIRayField (None unless sampler 'joint').
+    model, ray_model: EPINeRF and EPIRayField (None unless the sampler
+      trains its guide, 'joint').
     cfg: the stage config (sampler, joint).
     params: {'nerf'[, 'ray']}.
-    uv, st: [R, 2] rays.
-    key: PRNG key; alpha: the joint window scale (scalar).
+    rays: rays.Rays [R], origins (u, v, 0) and dirs (s, t, 1).
+    key: per-ray keys [R, 2], or one key when nothing is drawn.
+    alpha: the joint window scale (scalar).
     theta_n, theta_f: the angle range.
     randomized: jitter samples; noise: density noise std.
 
   Returns:
-    render dict (rgb, depth = expected tau, acc, weights, ...) plus tau_ray
-    [R] for the joint sampler and rgb_ray [R, 3] where the ray field has a
-    colour head (else None).
+    raycast.composite's dict (depth = expected tau) plus tau_ray [R] for the
+    joint sampler and rgb_ray [R, 3] where the ray field has a colour head
+    (else None).
   """
-  k_s, k_n = rng.split(key, 2)
-  n = cfg.sampler.num_samples
-  zeros = jnp.zeros(uv.shape[:-1], jnp.float32)
+  uv, st = rays.origins[:, :2], rays.dirs[:, :2]
+  keys = raycast.per_ray_keys(key, uv.shape[0], randomized, noise)
+  k_s, k_n = rng.split(keys, 2)
+  spec = _sampler(cfg)
   tau_ray = rgb_ray = None
-  if cfg.sampler.kind == "joint":
-    tau_ray = ray_model.apply({"params": params["ray"]}, jnp.concatenate([uv, st], -1))
-    if ray_model.color:
-      tau_ray, rgb_ray = tau_ray
-    # full_range of the N samples spread over the whole range, the rest
-    # (less the one interval the union adds) in the window.
-    n_full = int(round(cfg.joint.full_range * n))
-    n_win, k_f = n, None
-    if n_full > 0:
-      n_win = n - n_full - 1
-      if n_win < 1:
-        raise ValueError(f"joint.full_range={cfg.joint.full_range} leaves no window samples "
-                         f"of sampler.num_samples={n}")
-      k_s, k_f = rng.split(k_s, 2)
-    edges = samplers.depth_guided(k_s, jax.lax.stop_gradient(tau_ray), zeros, 1.0, n_win,
-                                  alpha, randomized=randomized)
-    edges = samplers.with_full_range(k_f, edges, zeros, 1.0, n_full, randomized)
-  elif cfg.sampler.kind == "stratified":
-    edges = samplers.stratified(k_s, zeros, 1.0, n, randomized)
-  else:
-    raise ValueError(f"sampler.kind={cfg.sampler.kind!r}: light fields use 'stratified' "
-                     "or 'joint'")
-  tau_mid = render.interval_midpoints(edges)
-  theta = lightfield.theta_of_tau(tau_mid, theta_n, theta_f)
-  pts = lightfield.epi_points(uv[..., None, :], st[..., None, :], theta)
-  views = jnp.broadcast_to(uv[..., None, :], (*pts.shape[:-1], 2))
-  sigma, rgb = model.apply({"params": params["nerf"]}, pts, views, k_n, noise)
-  out = render.volume_render(sigma, rgb, edges, white_background=False)
+  if spec.trains_guide:
+    tau_ray, rgb_ray = ray_field_tau(ray_model, params["ray"], uv, st)
+  guide = None if tau_ray is None else jax.lax.stop_gradient(tau_ray)
+  edges = functools.partial(spec.edges, cfg.sampler, near=0.0, far=1.0, window=alpha,
+                            num_full=full_range_samples(cfg), randomized=randomized)
+  t = jax.vmap(lambda k, g: edges(k, guide_depth=g))(k_s, guide)
+  points = functools.partial(lightfield.ray_points, theta_n=theta_n, theta_f=theta_f)
+  out = raycast.composite(model, params["nerf"], uv, st, t, False, k_n, noise,
+                          points_of=points)
   out["tau_ray"], out["rgb_ray"] = tau_ray, rgb_ray
   return out
 
@@ -146,24 +155,25 @@ def with_random_background(rgb, acc, keys):
   return rgb + u * (1.0 - acc[..., None])
 
 
-def loss_fn(params, data, key, step, part=None, *, model, ray_model, cfg, theta_n, theta_f,
-            mesh=None):
+def loss_fn(params, data: batches.StageData, key, step, part=None, *, model, ray_model, cfg,
+            theta_n, theta_f, mesh=None):
   """L_rec plus the stage's active loss terms (terms.TERMS: the light-field
   ones below) on the batch, or on its `part` (microbatch.part_of)."""
   k_idx, k_ren = jax.random.split(key)
-  idx = batches.draw(k_idx, None, step, data["rgb"].shape[0], cfg.batch_rays, None, 0)
+  px = data.pixels
+  idx = batches.draw(k_idx, None, step, px.rgb.shape[0], cfg.batch_rays, None, 0)
   keys = jax.random.split(k_ren, cfg.batch_rays)  # per ray: parts draw as the whole
   idx, keys = microbatch.part_of(idx, part), microbatch.part_of(keys, part)
   idx = parallel.shard_batch(idx, mesh)
+  batch = Batch(px.rays.take(idx), px.rgb[idx], idx)
   window = joint_window(cfg, step)
-  out = render_rays(model, ray_model, cfg, params, data["uv"][idx], data["st"][idx], keys,
-                    window, theta_n=theta_n, theta_f=theta_f, randomized=True,
-                    noise=cfg.density_noise)
+  out = render_rays(model, ray_model, cfg, params, batch.rays, keys, window, theta_n=theta_n,
+                    theta_f=theta_f, randomized=True, noise=cfg.density_noise)
   if cfg.random_background:
     out = dict(out, rgb=with_random_background(out["rgb"], out["acc"], keys))
   # fold_in leaves the training rays' keys as they are whatever the terms draw
-  x = terms.Inputs(params, model, [out], {"rgb": data["rgb"][idx], "idx": idx}, data,
-                   (jax.random.fold_in(key, 1),), part, mesh, theta_n, theta_f, False, None,
+  x = terms.Inputs(params, model, [out], batch, data, (jax.random.fold_in(key, 1),), part, mesh,
+                   theta_n, theta_f, False, None,
                    {"ray_model": ray_model, "window": window, "step": step})
   loss, aux = terms.total(cfg, step, x, terms.active_terms(cfg))
   if out["tau_ray"] is not None:
@@ -172,7 +182,7 @@ def loss_fn(params, data, key, step, part=None, *, model, ray_model, cfg, theta_
 
 
 def _joint(cfg):
-  return cfg.kind == "light_field" and cfg.sampler.kind == "joint"
+  return cfg.kind == "light_field" and _sampler(cfg).trains_guide
 
 
 def _consist_value(x, cfg):
@@ -191,12 +201,13 @@ def _pull_value(x, cfg):
 
 def _color_value(x, cfg):
   # the ray field's colour head on the pixels (the authors' nelf_rec_loss)
-  value = losses.reconstruction(x.outs[0]["rgb_ray"], x.batch["rgb"])
+  value = losses.reconstruction(x.outs[0]["rgb_ray"], x.batch.rgb)
   return value, {"ray_psnr": metrics.mse_to_psnr(value)}
 
 
 def _random_value(x, cfg):
-  random, color = _random_ray_consist(x.params, x.data["uv_box"], x.keys[0], x.extra["step"],
+  random, color = _random_ray_consist(x.params, x.data.terms["lf_random"], x.keys[0],
+                                      x.extra["step"],
                                       x.part, model=x.model, ray_model=x.extra["ray_model"],
                                       cfg=cfg, theta_n=x.near, theta_f=x.far, mesh=x.mesh)
   value, aux = cfg.joint.consist_weight * random, {"consist_random": random}
@@ -221,7 +232,8 @@ terms.TERMS.register("lf_color", terms.Term(
 # its value carries the two weights itself, so its own weight is 1.
 terms.TERMS.register("lf_random", terms.Term(
     active=lambda cfg: _joint(cfg) and cfg.joint.random_rays > 0,
-    weight=lambda cfg, step: 1.0, value=_random_value, geometries=_TWO_PLANE))
+    weight=lambda cfg, step: 1.0, value=_random_value, prepare=lambda s: camera_box(s.pixels),
+    geometries=_TWO_PLANE))
 
 
 def _random_ray_consist(params, uv_box, key, step, part, *, model, ray_model, cfg, theta_n,
@@ -244,7 +256,8 @@ def _random_ray_consist(params, uv_box, key, step, part, *, model, ray_model, cf
   keys = jax.random.split(k_ren, n)
   uv, st, keys = (parallel.shard_batch(microbatch.part_of(x, part), mesh) for x in (uv, st, keys))
   frozen = dict(params, nerf=jax.lax.stop_gradient(params["nerf"]))
-  out = render_rays(model, ray_model, cfg, frozen, uv, st, keys, joint_window(cfg, step),
+  rays = two_plane_rays(uv, st)
+  out = render_rays(model, ray_model, cfg, frozen, rays, keys, joint_window(cfg, step),
                     theta_n=theta_n, theta_f=theta_f, randomized=True)
   consist = consist_loss(out, cfg.joint.target)
   if out["rgb_ray"] is None:
@@ -253,54 +266,52 @@ def _random_ray_consist(params, uv_box, key, step, part, *, model, ray_model, cf
   return consist, losses.reconstruction(out["rgb_ray"], out["rgb"])
 
 
-def training_rays(views):
-  """Flat training rays: uv, st [R, 2], rgb [R, 3], and the box of the
-  cameras' uv, uv_box [2 (min, max), 2] (numpy)."""
-  o, d = views.rays()
-  uv = o[..., :2].reshape(-1, 2)
-  return {"uv": uv, "st": d[..., :2].reshape(-1, 2), "rgb": views.images.reshape(-1, 3),
-          "uv_box": np.stack([uv.min(0), uv.max(0)])}
+def two_plane_rays(uv, st) -> Rays:
+  """Rays uv, st [R, 2] in the renderers' form: (u, v, 0) and (s, t, 1)."""
+  return Rays(jnp.pad(uv, ((0, 0), (0, 1))), jnp.pad(st, ((0, 0), (0, 1)), constant_values=1.0))
+
+
+def camera_box(pixels):
+  """The box of the training cameras' (u, v), [2 (min, max), 2] (numpy), where
+  the random rays of L_consist are drawn."""
+  uv = pixels.rays.origins[:, :2]
+  return np.stack([uv.min(0), uv.max(0)])
 
 
 def make_eval_fn(model, ray_model, cfg, theta_n, theta_f, block_rays=0):
-  """Jitted (params, alpha, origins, dirs) -> {rgb, depth (expected tau), acc};
-  origins (u, v, 0) and dirs (s, t, 1) as LightFieldViews.rays() gives them.
-  block_rays: see field.in_blocks."""
-  @jax.jit
-  def fn(params, alpha, o, d):
-    def render_block(o, d):
-      out = render_rays(model, ray_model, cfg, params, o[..., :2], d[..., :2],
-                        jax.random.PRNGKey(0), alpha, theta_n=theta_n, theta_f=theta_f,
-                        randomized=False)
-      return {"rgb": out["rgb"], "depth": render.normalized_depth(out["depth"], out["acc"]),
-              "acc": out["acc"]}
-    return raycast.in_blocks(render_block, block_rays, o, d)
-  return fn
+  """Jitted ((params, alpha), origins, dirs) -> raycast.eval_outputs (depth:
+  expected tau), rays as LightFieldViews.rays() gives them (raycast.jit_eval)."""
+  def render_final(state, rays):
+    params, alpha = state
+    return render_rays(model, ray_model, cfg, params, rays, jax.random.PRNGKey(0), alpha,
+                       theta_n=theta_n, theta_f=theta_f, randomized=False)
+  return raycast.jit_eval(render_final, block_rays)
 
 
 def train(ctx: base.StageContext):
   """Trains the light-field stage ctx.name; returns (StageState, info)."""
   config, name, dataset, cfg = ctx.config, ctx.name, ctx.dataset, ctx.cfg
   microbatch.check_parts(cfg, cfg.batch_rays, f"{name}.batch_rays", ctx.mesh)
-  if cfg.sampler.kind == "joint" and cfg.joint.random_rays > 0:
+  if _sampler(cfg).trains_guide and cfg.joint.random_rays > 0:
     microbatch.check_parts(cfg, cfg.joint.random_rays, f"{name}.joint.random_rays", ctx.mesh)
   model, ray_model = models_from_config(config, name)
   theta_n, theta_f = dataset.near, dataset.far
-  data = jax.device_put(training_rays(dataset.train))
+  data = jax.device_put(terms.stage_data(ctx, cfg, batches.pixels_of(dataset.train, None),
+                                         terms.active_terms(cfg)))
   step_loss = functools.partial(loss_fn, model=model, ray_model=ray_model, cfg=cfg,
                                 theta_n=theta_n, theta_f=theta_f, mesh=ctx.mesh)
   render_eval = make_eval_fn(model, ray_model, cfg, theta_n, theta_f, config.eval.block_rays)
 
   def eval_fn(params, step):
     # the joint sampler renders with the window it trains with at this step
-    fn = functools.partial(render_eval, params, joint_window(cfg, step))
+    fn = functools.partial(render_eval, (params, joint_window(cfg, step)))
     return evaluate.heldout(fn, dataset.test, config.eval.chunk, config.eval.curve_views)
 
   params, step, info = loop.train(name, cfg, ctx.workdir,
                                   init_params(model, ray_model, config.seed), step_loss,
                                   data, config.seed, eval_fn, ctx.log, ctx.wall_offset, ctx.mesh,
                                   snapshot_s=ctx.front_s)
-  final = functools.partial(render_eval, params, joint_window(cfg, step))
+  final = functools.partial(render_eval, (params, joint_window(cfg, step)))
   info["eval"] = evaluate.evaluate(final, dataset.test, config.eval.chunk,
                                    os.path.join(stage_dir(ctx.workdir, name), "eval"), 0.0, 1.0,
                                    config.eval.save_images, config.eval.lpips)
@@ -319,7 +330,7 @@ def renderer(config, name, dataset, states):
   cfg, state = config[name], states[name]
   render_eval = make_eval_fn(model, ray_model, cfg, dataset.near, dataset.far,
                              config.eval.block_rays)
-  return functools.partial(render_eval, state.params, joint_window(cfg, int(state.step)))
+  return functools.partial(render_eval, (state.params, joint_window(cfg, int(state.step))))
 
 
 base.TRAINERS.register("light_field", base.Trainer(

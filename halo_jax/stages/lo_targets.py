@@ -5,6 +5,7 @@ import jax
 import numpy as np
 
 from halo_jax import camera, models, raycast
+from halo_jax.rays import Rays, Targets
 from halo_jax.stages.state import StageState
 
 
@@ -21,16 +22,17 @@ def _targets_fn(lo_state: StageState, num_samples, near, far, white_background, 
   return jax.jit(fn)
 
 
-def on_rays(lo_state: StageState, origins, dirs, *, num_samples, near, far, white_background,
-            target="max_weight", chunk=8192, block_rays=0, times=None):
-  """{'depth', 'acc'} [R] (numpy) of the frozen Lo-NeRF on rays [R, 3]."""
+def on_rays(lo_state: StageState, rays: Rays, *, num_samples, near, far, white_background,
+            target="max_weight", chunk=8192, block_rays=0) -> Targets:
+  """The frozen Lo-NeRF's depth and opacity [R] on `rays` [R] (numpy)."""
   fn = _targets_fn(lo_state, num_samples, near, far, white_background, target, block_rays)
-  return raycast.render_chunked(fn, origins, dirs, chunk, times)
+  out = raycast.render_chunked(fn, rays.origins, rays.dirs, chunk, rays.times)
+  return Targets(rays, out["depth"], out["acc"])
 
 
 def random_ray_bank(lo_state: StageState, num_rays, radius, focal_over_width, near, far,
                     white_background, num_samples, seed, target="max_weight", chunk=8192,
-                    block_rays=0):
+                    block_rays=0) -> Targets:
   """Random hemisphere rays rendered once by the frozen Lo-NeRF.
 
   The Lo field is frozen, so its depth and opacity on a fixed bank of random
@@ -39,18 +41,13 @@ def random_ray_bank(lo_state: StageState, num_rays, radius, focal_over_width, ne
   every ray also gets a random time in [0, 1], so the regulariser covers
   times no training view shows.
 
-  Returns dict: origins, dirs [B, 3], depth, acc [B] (numpy), times [B, 1]
-  (dynamic only).
+  Returns Targets on B rays (numpy; times [B, 1] for a dynamic Lo only).
   """
   k_rays, k_time = jax.random.split(jax.random.PRNGKey(seed))
   o, d = camera.random_hemisphere_rays(k_rays, num_rays, radius, focal_over_width)
   times = None
   if models.is_dynamic(lo_state.config, "lo"):
     times = np.asarray(jax.random.uniform(k_time, (num_rays, 1)))
-  out = on_rays(lo_state, np.asarray(o), np.asarray(d), num_samples=num_samples, near=near,
-                far=far, white_background=white_background, target=target, chunk=chunk,
-                block_rays=block_rays, times=times)
-  bank = {"origins": np.asarray(o), "dirs": np.asarray(d), **out}
-  if times is not None:
-    bank["times"] = times
-  return bank
+  return on_rays(lo_state, Rays(np.asarray(o), np.asarray(d), times), num_samples=num_samples,
+                 near=near, far=far, white_background=white_background, target=target,
+                 chunk=chunk, block_rays=block_rays)

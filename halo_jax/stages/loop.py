@@ -10,7 +10,7 @@ from typing import Callable, Optional
 import jax
 
 from halo_jax import checkpoint, parallel, tensorboard
-from halo_jax.stages import progress, snapshots
+from halo_jax.stages import preemption, progress, snapshots
 from halo_jax.stages.metrics_log import MetricsLog
 from halo_jax.stages.step import NONFINITE_WHAT, initial_state, make_step, optimizer, schedule
 
@@ -140,6 +140,17 @@ class _Run:
       self.finish_step()
       self.snaps.save(step, self.state["params"], self.wall_offset + self.wall_s, times)
 
+  def stop(self, step, signum):
+    """Saves step `step` (logged, checkpointed) and raises Preempted."""
+    self.finish_step()
+    if self.last_log != step:
+      self.log.write(stage=self.name, step=step, wall_s=self.wall_offset + self.wall_s,
+                     skipped=int(self.state["skipped"]))
+    if self.mngr.latest_step() != step:
+      checkpoint.save(self.mngr, step, dict(self.state, wall_s=self.wall_s))
+    raise preemption.Preempted(signum, f"in stage {self.name!r} at step {step}, its "
+                               "checkpoint saved")
+
   def close(self, step):
     """The last log line, checkpoint and evaluation of a stopped loop."""
     cfg = self.cfg
@@ -204,7 +215,8 @@ def train(name: str, cfg, workdir: str, params, loss_fn: Callable, data, seed: i
   compile_s = time.perf_counter() - t0
   bar = progress.ProgressBar(name, cfg, start, wall_s)
   try:
-    step = _loop(run, step_fn, data, base_key, bar, start, cfg)
+    with preemption.training():
+      step = _loop(run, step_fn, data, base_key, bar, start, cfg)
   finally:
     bar.close()  # before any error line, so it starts a line of its own
     if board is not None:
@@ -238,5 +250,7 @@ def _loop(run, step_fn, data, base_key, bar, start, cfg):
     run.wall_s += dt
     bar.advance(step, dt, run.wall_s)
     run.after_step(step, loss, aux, bar)
+    if preemption.requested() is not None:
+      run.stop(step, preemption.requested())
   run.close(step)
   return step

@@ -13,10 +13,10 @@ import time
 from typing import Any
 
 import jax
-import numpy as np
 
 from halo_jax import evaluate, geometry, lightfield, models, parallel, ray_fields, raycast
 from halo_jax import registry, samplers
+from halo_jax.rays import Batch
 from halo_jax.stages import base, batches, loop, microbatch, terms
 from halo_jax.stages.state import StageState, stage_dir
 from halo_jax.stages.transfer import transfer_from_lo
@@ -35,7 +35,7 @@ def requires(config, name):
   needs = set(_sampler(cfg).needs)
   for _, term in terms.active_terms(cfg):
     needs.update(term.needs(cfg))
-  if cfg.get("init_from_lo", False):
+  if cfg.init_from_lo:
     needs.add("lo")
   return tuple(sorted(needs))
 
@@ -61,6 +61,9 @@ def check(config, name, dspec):
                  f"{name}.sampler.kind={cfg.sampler.kind!r} needs a ray field, which has no "
                  f"time input; {where} needs 'stratified' or 'hierarchical'")
   terms.check_geometries(cfg, name, dspec, where)
+  registry.check(name != "lo" or not (cfg.init_from_lo or cfg.encoding.with_lo),
+                 "lo.init_from_lo and lo.encoding.with_lo start a stage from Lo-NeRF; "
+                 "Lo-NeRF itself takes False")
 
 
 def init_params(config, name, dataset):
@@ -79,19 +82,6 @@ def init_params(config, name, dataset):
   return params
 
 
-def training_rays(views, precrop_frac):
-  """All training pixels as flat rays: origins, dirs, rgb [R, 3], times [R, 1]
-  (dynamic scenes), and `index` (batches.index_data). Numpy."""
-  o, d = views.rays()
-  n, h, w = views.images.shape[:3]
-  out = {"origins": o.reshape(-1, 3), "dirs": d.reshape(-1, 3),
-         "rgb": views.images.reshape(-1, 3),
-         "index": batches.index_data(n, h, w, precrop_frac)}
-  if views.times is not None:
-    out["times"] = np.ascontiguousarray(views.ray_times().reshape(-1, 1))
-  return out
-
-
 def joint_window(cfg, step):
   """The joint sampler's half window at `step` (lightfield.alpha_schedule)."""
   return lightfield.alpha_schedule(step, cfg.joint.alpha_steps, cfg.joint.alpha_final)
@@ -105,23 +95,23 @@ def band_fraction(cfg, step):
   return jax.numpy.minimum(step / (cfg.freq_reg.end * cfg.steps), 1.0)
 
 
-def loss_fn(params, data, key, step, part=None, *, s):
+def loss_fn(params, data: batches.StageData, key, step, part=None, *, s):
   """The stage's loss on one batch drawn on device (split over `s.mesh`'s
   devices when data-parallel), or on its `part` (microbatch.part_of: every ray
   keeps its own PRNG key). s: the stage's StepSettings (`loss_settings`)."""
   cfg = s.cfg
   k_idx, k_crop, k_ren, k_extra, k_extra_s = jax.random.split(key, 5)
-  idx = batches.draw(k_idx, k_crop, step, data["origins"].shape[0], cfg.batch_rays,
-                     data["index"], cfg.precrop_steps, cfg.one_image)
+  px = data.pixels
+  idx = batches.draw(k_idx, k_crop, step, px.rgb.shape[0], cfg.batch_rays, px.index,
+                     cfg.precrop_steps, cfg.one_image)
   keys = microbatch.part_of(jax.random.split(k_ren, cfg.batch_rays), part)
   idx = parallel.shard_batch(microbatch.part_of(idx, part), s.mesh)
-  batch = {"origins": data["origins"][idx], "dirs": data["dirs"][idx], "rgb": data["rgb"][idx],
-           "times": data["times"][idx] if "times" in data else None, "idx": idx}
+  batch = Batch(px.rays.take(idx), px.rgb[idx], idx)
   guide, window = _guide_at(s, params, data, step)
   outs = raycast.render_rays(
-      s.model, cfg.sampler, params["nerf"], batch["origins"], batch["dirs"], keys,
+      s.model, cfg.sampler, params["nerf"], batch.rays.origins, batch.rays.dirs, keys,
       near=s.near, far=s.far, white_background=s.white, randomized=True,
-      noise=cfg.density_noise, guide=guide, times=batch["times"], window=window,
+      noise=cfg.density_noise, guide=guide, times=batch.rays.times, window=window,
       coarse_params=params.get("coarse"), band_fraction=band_fraction(cfg, step))
   x = terms.Inputs(params, s.model, outs, batch, data, (k_extra, k_extra_s), part,
                    s.mesh, s.near, s.far, s.white, guide)
@@ -139,7 +129,7 @@ def _guide_at(s, params, data, step):
   if spec.trains_guide:
     return (raycast.Guide(s.guide_model, params["ray"], s.geometry, s.radius),
             joint_window(s.cfg, step))
-  return raycast.Guide(s.guide_model, data["guide"], s.geometry, s.radius), None
+  return raycast.Guide(s.guide_model, data.guide, s.geometry, s.radius), None
 
 
 def _guide_setup(ctx: base.StageContext):
@@ -159,7 +149,7 @@ def _guide_setup(ctx: base.StageContext):
 def _initial_params(ctx: base.StageContext):
   config, name, cfg = ctx.config, ctx.name, ctx.cfg
   params = init_params(config, name, ctx.dataset)
-  if cfg.get("init_from_lo", False):
+  if cfg.init_from_lo:
     lo = ctx.states["lo"]
     if cfg.encoding.with_lo and lo.config.lo.encoding.to_dict() != config.lo.encoding.to_dict():
       raise registry.ConfigError(
@@ -242,13 +232,9 @@ def train(ctx: base.StageContext):
     microbatch.check_parts(cfg, cfg.unseen.num_points, f"{name}.unseen.num_points", ctx.mesh)
   params = _initial_params(ctx)
   t0 = time.perf_counter()
-  data = training_rays(ds.train, cfg.precrop_frac)
   settings, guide_params = _stage_settings(ctx, cfg)
-  setup = terms.Setup(config, cfg, ds, data, ctx.states)
-  data = dict(data, **{n: t.prepare(setup) for n, t in active if t.prepare is not None})
-  if guide_params is not None:
-    data["guide"] = guide_params
-  data = jax.device_put(data)
+  data = jax.device_put(terms.stage_data(ctx, cfg, batches.pixels_of(ds.train, cfg.precrop_frac),
+                                         active, guide_params))
   bank_s = time.perf_counter() - t0  # rendering Lo targets counts as training time
   cfg = loop.minus_seconds(cfg, bank_s)
   settings = dataclasses.replace(settings, cfg=cfg)

@@ -2,12 +2,14 @@
 light-field network that answers with one MLP query per ray."""
 import functools
 import time
+from typing import NamedTuple, Optional
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 
 from halo_jax import geometry, losses, parallel, ray_fields, raycast, registry, rng
+from halo_jax.rays import Rays, Targets
 from halo_jax.stages import base, lo_targets, loop, microbatch
 from halo_jax.stages.state import StageState
 
@@ -34,26 +36,33 @@ def init_params(config, name, dataset):
   return {"ray": ray_fields.init_ray_field(model, config.seed)}
 
 
-def loss_fn(params, data, key, step, part=None, *, model, guide_geometry, radius, far, n_train,
-            n_random, mesh=None):
+class RayStageData(NamedTuple):
+  """Lo-NeRF's targets on the training rays and on a bank of random
+  hemisphere rays (None without random rays)."""
+  train: Targets
+  random: Optional[Targets]
+
+
+def loss_fn(params, data: RayStageData, key, step, part=None, *, model, guide_geometry, radius,
+            far, n_train, n_random, mesh=None):
   """L_ray on a batch of training rays and random hemisphere rays (or on the
   batch's `part`, microbatch.part_of: each source is cut alike)."""
   k_t, k_r = jax.random.split(key)
   sources = []
-  for k, src, n in ((k_t, data["train"], n_train), (k_r, data.get("random"), n_random)):
+  for k, src, n in ((k_t, data.train, n_train), (k_r, data.random, n_random)):
     if n:
-      i = microbatch.part_of(jax.random.randint(k, (n,), 0, src["origins"].shape[0]), part)
-      sources.append({f: v[i] for f, v in src.items()})
-  batch = {f: parallel.shard_batch(jnp.concatenate([p[f] for p in sources]), mesh)
-           for f in sources[0]}
+      i = microbatch.part_of(jax.random.randint(k, (n,), 0, src.depth.shape[0]), part)
+      sources.append(src.take(i))
+  batch = jax.tree_util.tree_map(
+      lambda *xs: parallel.shard_batch(jnp.concatenate(xs), mesh), *sources)
   guide = raycast.Guide(model, params["ray"], guide_geometry, radius)
-  depth, acc = raycast.ray_field_depth(guide, batch["origins"], batch["dirs"])
-  loss = losses.ray_field(depth, acc, batch["depth"], batch["acc"], far)
-  return loss, {"depth_rmse": jnp.sqrt(jnp.mean((depth - batch["depth"]) ** 2)),
-                "acc_mae": jnp.mean(jnp.abs(acc - batch["acc"]))}
+  depth, acc = raycast.ray_field_depth(guide, batch.rays.origins, batch.rays.dirs)
+  loss = losses.ray_field(depth, acc, batch.depth, batch.acc, far)
+  return loss, {"depth_rmse": jnp.sqrt(jnp.mean((depth - batch.depth) ** 2)),
+                "acc_mae": jnp.mean(jnp.abs(acc - batch.acc))}
 
 
-def _targets(ctx, lo_samples, n_random, radius):
+def _targets(ctx, lo_samples, n_random, radius) -> RayStageData:
   """Lo-NeRF's depth and opacity on the training rays (or `target_rays` of
   them, drawn once) and on a bank of random hemisphere rays (numpy)."""
   config, cfg, ds = ctx.config, ctx.cfg, ctx.dataset
@@ -67,15 +76,15 @@ def _targets(ctx, lo_samples, n_random, radius):
   common = dict(near=ds.near, far=ds.far, white_background=ds.white_background,
                 target=cfg.depth_target, chunk=config.eval.chunk,
                 block_rays=config.eval.block_rays)
-  data = {"train": {"origins": o, "dirs": d,
-                    **lo_targets.on_rays(lo, o, d, num_samples=lo_samples, **common)}}
+  train = lo_targets.on_rays(lo, Rays(o, d), num_samples=lo_samples, **common)
+  random = None
   if n_random:
-    data["random"] = lo_targets.random_ray_bank(
+    random = lo_targets.random_ray_bank(
         lo, cfg.bank_rays, radius, ds.train.focal / ds.train.width, ds.near, ds.far,
         ds.white_background, lo_samples,
         rng.stream_seed(config.seed, rng.Stream.RAY_RANDOM_BANK), cfg.depth_target,
         config.eval.chunk, config.eval.block_rays)
-  return data
+  return RayStageData(train, random)
 
 
 def train(ctx: base.StageContext):
@@ -105,7 +114,7 @@ def train(ctx: base.StageContext):
                                   ctx.wall_offset + target_s, ctx.mesh,
                                   snapshot_s=ctx.front_s)
   info["wall_s"] += target_s
-  info.update(target_s=target_s, target_rays=int(data["train"]["depth"].shape[0]))
+  info.update(target_s=target_s, target_rays=int(data.train.depth.shape[0]))
   return StageState(params, step, config, name), info
 
 

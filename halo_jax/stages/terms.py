@@ -17,21 +17,23 @@ import numpy as np
 
 from halo_jax import (geometry, losses, metrics, parallel, ray_fields, raycast, registry, rng,
                       samplers)
+from halo_jax.rays import Batch, Pixels, Rays
 from halo_jax.stages import lo_targets, microbatch
+from halo_jax.stages.batches import StageData
 
 
 class Inputs(NamedTuple):
   """What a term sees in a step: parameters ({'nerf', ...}), the model, the
-  renders (a list, first pass first), the batch (origins, dirs [B, 3], idx
-  [B], times or None), the device data (each prepared term's under its
-  name), keys for rays a term draws itself, the micro-batch part, the mesh,
-  the bounds, the background, the guide (a trained ray field) or None, and
-  what else a trainer hands its own terms (`extra`)."""
+  renders (a list, first pass first), the step's rays.Batch, the stage's
+  batches.StageData (each prepared term's arrays under its name), keys for
+  rays a term draws itself, the micro-batch part, the mesh, the bounds, the
+  background, the guide (a trained ray field) or None, and what else a
+  trainer hands its own terms (`extra`)."""
   params: Any
   model: Any
   outs: list
-  batch: dict
-  data: dict
+  batch: Batch
+  data: StageData
   keys: tuple
   part: Any
   mesh: Any
@@ -46,8 +48,8 @@ class Inputs(NamedTuple):
 class Term:
   """active(cfg) -> bool; weight(cfg, step) -> scalar (may be traced);
   value(Inputs, cfg) -> (loss, aux dict); needs(cfg) -> stage names;
-  prepare(setup) -> dict of arrays put on device under the term's name, or
-  None (setup: a terms.Setup)."""
+  prepare(setup) -> a pytree of arrays put on device under the term's name
+  in StageData.terms, or None (setup: a terms.Setup)."""
   active: Callable
   weight: Callable
   value: Callable
@@ -58,11 +60,11 @@ class Term:
 
 class Setup(NamedTuple):
   """What `prepare` gets: the run config, the stage config, the dataset, the
-  flat training rays (numpy), and finished stages' states."""
+  training pixels (numpy rays.Pixels), and finished stages' states."""
   config: Any
   cfg: Any
   dataset: Any
-  rays: dict
+  pixels: Pixels
   states: dict
 
 
@@ -74,24 +76,31 @@ def active_terms(cfg):
   return [(n, t) for n, t in TERMS.items() if t.active(cfg)]
 
 
+def stage_data(ctx, cfg, pixels: Pixels, active, guide=None) -> StageData:
+  """The stage's StageData (numpy): its pixels, what each active term
+  prepares once before training, and a frozen guide's parameters."""
+  setup = Setup(ctx.config, cfg, ctx.dataset, pixels, ctx.states)
+  prepared = {n: t.prepare(setup) for n, t in active if t.prepare is not None}
+  return StageData(pixels, prepared, guide)
+
+
 # --- L_consist (3D joint sampler): the ray field trained in the stage follows
 # the frozen Lo-NeRF's depth and opacity on the training rays (L_ray's form).
 
 def _consist_prepare(s: Setup):
   lo = s.states["lo"]
-  return lo_targets.on_rays(lo, s.rays["origins"], s.rays["dirs"],
-                            num_samples=lo.config.lo.sampler.num_samples,
-                            near=s.dataset.near, far=s.dataset.far,
-                            white_background=s.dataset.white_background,
-                            target=s.config.ray.depth_target, chunk=s.config.eval.chunk,
-                            block_rays=s.config.eval.block_rays)
+  targets = lo_targets.on_rays(lo, s.pixels.rays, num_samples=lo.config.lo.sampler.num_samples,
+                               near=s.dataset.near, far=s.dataset.far,
+                               white_background=s.dataset.white_background,
+                               target=s.config.ray.depth_target, chunk=s.config.eval.chunk,
+                               block_rays=s.config.eval.block_rays)
+  return targets._replace(rays=None)  # row for row the training pixels
 
 
 def _consist_value(x: Inputs, cfg):
-  depth, acc = raycast.ray_field_depth(x.guide, x.batch["origins"], x.batch["dirs"])
-  t = x.data["consist"]
-  idx = x.batch["idx"]
-  value = losses.ray_field(depth, acc, t["depth"][idx], t["acc"][idx], x.far)
+  depth, acc = raycast.ray_field_depth(x.guide, x.batch.rays.origins, x.batch.rays.dirs)
+  t = x.data.terms["consist"].take(x.batch.idx)
+  value = losses.ray_field(depth, acc, t.depth, t.acc, x.far)
   return value, {"consist": value}
 
 
@@ -105,6 +114,14 @@ TERMS.register("consist", Term(
 
 # --- L_empty: Hi-NeRF's opacity on random rays the frozen Lo-NeRF sees empty.
 
+class EmptyBank(NamedTuple):
+  """L_empty's random rays [B] with the frozen Lo-NeRF's opacity acc [B],
+  and idx [E], the rows of those Lo sees empty (acc < tau)."""
+  rays: Rays
+  acc: Any
+  idx: Any
+
+
 def _empty_prepare(s: Setup):
   e, ds = s.cfg.empty, s.dataset
   bank = lo_targets.random_ray_bank(
@@ -113,25 +130,23 @@ def _empty_prepare(s: Setup):
       ds.white_background, e.num_samples, rng.stream_seed(s.config.seed, rng.Stream.EMPTY_BANK),
       chunk=s.config.eval.chunk,
       block_rays=s.config.eval.block_rays)
-  idx = np.flatnonzero(bank["acc"] < e.tau).astype(np.int32)
+  idx = np.flatnonzero(bank.acc < e.tau).astype(np.int32)
   if idx.size == 0:  # nothing is empty: the mask in L_empty makes it 0
-    idx = np.arange(bank["acc"].shape[0], dtype=np.int32)
-  out = {k: bank[k] for k in ("origins", "dirs", "acc", "times") if k in bank}
-  out["idx"] = idx
-  return out
+    idx = np.arange(bank.acc.shape[0], dtype=np.int32)
+  return EmptyBank(bank.rays, bank.acc, idx)
 
 
 def _empty_value(x: Inputs, cfg):
-  e, bank = cfg.empty, x.data["empty"]
+  e, bank = cfg.empty, x.data.terms["empty"]
   k_pick, k_samples = x.keys
-  j = bank["idx"][jax.random.randint(k_pick, (e.num_rays,), 0, bank["idx"].shape[0])]
+  j = bank.idx[jax.random.randint(k_pick, (e.num_rays,), 0, bank.idx.shape[0])]
   keys = microbatch.part_of(jax.random.split(k_samples, e.num_rays), x.part)
   j = parallel.shard_batch(microbatch.part_of(j, x.part), x.mesh)
-  times = bank["times"][j] if "times" in bank else None
+  rays = bank.rays.take(j)
   t = jax.vmap(lambda k: samplers.stratified(k, x.near, x.far, e.num_samples))(keys)
-  acc = raycast.composite(x.model, x.params["nerf"], bank["origins"][j], bank["dirs"][j], t,
-                          x.white, times=times)["acc"]
-  value = losses.empty_space(acc, bank["acc"][j], e.tau)
+  acc = raycast.composite(x.model, x.params["nerf"], rays.origins, rays.dirs, t, x.white,
+                          times=rays.times)["acc"]
+  value = losses.empty_space(acc, bank.acc[j], e.tau)
   return value, {"empty": value}
 
 
@@ -166,7 +181,7 @@ def check_geometries(cfg, name, dspec, where):
 
 def total(cfg, step, x: Inputs, terms):
   """L_rec (+ the first pass's, weighted) plus every active term: (loss, aux)."""
-  target = x.batch["rgb"]
+  target = x.batch.rgb
   rec = losses.reconstruction(x.outs[-1]["rgb"], target)
   loss = rec
   if len(x.outs) > 1:

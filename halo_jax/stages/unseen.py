@@ -13,6 +13,8 @@ no earlier stage, so it regularises Lo-NeRF as well as Hi-NeRF.
 Settings: the stage's `unseen` section (weight 0: off). Registered as a
 loss term (stages.terms.TERMS); methods/halo_unseen.py switches it on.
 """
+from typing import Any, NamedTuple
+
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -21,10 +23,19 @@ from halo_jax import camera, geometry, losses, parallel, ray_fields, rng, visibi
 from halo_jax.stages import microbatch, terms
 
 
-def _prepare(s: terms.Setup):
-  """{'points', 'dirs' [P, 3], 'times' [P, 1] (dynamic)} of bank points that
-  fewer than min_views training cameras see (numpy); P >= 1, and 'valid' [P]
-  is 0 for the one placeholder of a scene where every point is seen."""
+class UnseenBank(NamedTuple):
+  """Points [P, 3] that fewer than min_views training cameras see, the
+  directions of the rays they were drawn on [P, 3], their times [P, 1]
+  (dynamic scenes, else None), and valid [P]: 0 for the one placeholder of a
+  scene where every point is seen (P >= 1)."""
+  points: Any
+  dirs: Any
+  times: Any
+  valid: Any
+
+
+def _prepare(s: terms.Setup) -> UnseenBank:
+  """The bank of unseen points (numpy)."""
   u, ds = s.cfg.unseen, s.dataset
   seed = rng.stream_seed(s.config.seed, rng.Stream.UNSEEN_BANK)
   k_rays, k_t, k_time = jax.random.split(jax.random.PRNGKey(seed), 3)
@@ -40,23 +51,23 @@ def _prepare(s: terms.Setup):
   valid = np.ones(max(keep.size, 1), np.float32)
   if keep.size == 0:
     keep, valid[:] = np.zeros(1, np.int64), 0.0
-  out = {"points": np.asarray(points)[keep], "dirs": np.asarray(d)[keep], "valid": valid}
+  times = None
   if ds.train.times is not None:
-    out["times"] = np.asarray(jax.random.uniform(k_time, (u.bank_points, 1)))[keep]
-  return out
+    times = np.asarray(jax.random.uniform(k_time, (u.bank_points, 1)))[keep]
+  return UnseenBank(np.asarray(points)[keep], np.asarray(d)[keep], times, valid)
 
 
 def _value(x: terms.Inputs, cfg):
-  u, bank = cfg.unseen, x.data["unseen"]
+  u, bank = cfg.unseen, x.data.terms["unseen"]
   k_pick, _ = x.keys
   # a key of its own, apart from L_empty's draws from the same step keys
   j = jax.random.randint(jax.random.fold_in(k_pick, 5), (u.num_points,), 0,
-                         bank["points"].shape[0])
+                         bank.points.shape[0])
   j = parallel.shard_batch(microbatch.part_of(j, x.part), x.mesh)
-  extra = {"times": bank["times"][j]} if "times" in bank else {}
-  sigma, _ = x.model.apply({"params": x.params["nerf"]}, bank["points"][j], bank["dirs"][j],
+  extra = {} if bank.times is None else {"times": bank.times[j]}
+  sigma, _ = x.model.apply({"params": x.params["nerf"]}, bank.points[j], bank.dirs[j],
                            None, 0.0, **extra)
-  value = losses.unseen_density(sigma, bank["valid"][j] > 0)
+  value = losses.unseen_density(sigma, bank.valid[j] > 0)
   return value, {"unseen": value}
 
 
