@@ -60,8 +60,9 @@ def _time(fn, *args):
                                                         for _ in range(FLAGS.repeats)]))
 
 
-def _flops(jitted, *args):
-  cost = jitted.lower(*args).compile().cost_analysis()
+def _flops(fn, *args):
+  """XLA's flop count of fn(*args) (fn jitted here, whatever it calls jitted inside)."""
+  cost = jax.jit(fn).lower(*args).compile().cost_analysis()
   cost = cost[0] if isinstance(cost, (list, tuple)) else cost
   return float(cost.get("flops", 0.0))
 
