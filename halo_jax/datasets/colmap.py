@@ -108,7 +108,7 @@ def read_colmap(root: str, model: str) -> Capture:
   c2w = np.stack([np.linalg.inv(np.concatenate(
       [im.cam_from_world().matrix(), [[0, 0, 0, 1.0]]], 0)) @ _GL_FROM_CV for im in regs])
   points = np.array([p.xyz for p in rec.points3D.values()], np.float64).reshape(-1, 3)
-  return Capture(tuple(im.name for im in regs),
+  return Capture(tuple(os.path.splitext(im.name)[0] for im in regs),
                  tuple(os.path.join(images, im.name) for im in regs), c2w, focal, w, h,
                  points if len(points) else None)
 

@@ -20,7 +20,7 @@ PINHOLES = ("PINHOLE", "SIMPLE_PINHOLE")
 class Capture:
   """Posed photos before any normalisation.
 
-  names: N image names (file names without folder); paths: their files;
+  names: N view names (file names without folder or extension); paths: their files;
   c2w: [N, 4, 4] camera-to-world, OpenGL axes; focal, width, height: the one
   pinhole camera; points: [P, 3] sparse scene points, or None.
   """
@@ -68,7 +68,7 @@ def read_transforms(root: str) -> Capture:
   cams, names, paths, c2w = [], [], [], []
   for i, fr in enumerate(frames):
     get = lambda k, d=None: fr.get(k, meta.get(k, d))  # pylint: disable=cell-var-from-loop
-    name = os.path.basename(fr.get("file_path", f"frame {i}"))
+    name = os.path.splitext(os.path.basename(fr.get("file_path", f"frame {i}")))[0]
     dist = {k: get(k, 0.0) for k in ("k1", "k2", "k3", "k4", "p1", "p2")}
     if any(dist.values()):
       raise DataError(f"{path}: frame {name} has camera_model {get('camera_model', 'OPENCV')!r} "
