@@ -362,7 +362,7 @@ def main(argv):
     for scene, variant, seed in _plan(study, FLAGS.only):
       path = result_path(FLAGS.results, FLAGS.study, scene, variant, seed)
       tag = f"{scene.name}/{variant.name}/seed{seed}"
-      state = benchmark._state(path, scene)  # pylint: disable=protected-access
+      state = benchmark._state(path, scene, _terms(study))  # pylint: disable=protected-access
       if FLAGS.dry_run or state != "to run":
         print(f"{state:8} {tag}", flush=True)
         continue

@@ -2,9 +2,11 @@
 validation views, and their report, from hand-made result files."""
 import json
 import os
+import subprocess
 import sys
 
-sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
+REPO = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..")
+sys.path.insert(0, REPO)
 from experiments import ablations  # pylint: disable=g-import-not-at-top
 
 
@@ -49,3 +51,13 @@ def test_report_gives_each_variant_against_the_reference_per_seed(tmp_path):
   assert "| `density_bias_-4` | 2 | 18.00 ± 2.83 | 16.00 ± 1.41 | +2.00 | +5.00 | 100 |" in text
   assert "| `density_bias_-4` | 2 | +5.00 | +1.00 | 0 |" in text
   assert "`relu` | 0 |" in text and "## lattice" not in text
+
+
+def test_the_command_lists_its_plan_without_running(tmp_path):
+  res = subprocess.run([sys.executable, "experiments/ablations.py", "--study=hi_samples",
+                        "--dry_run", f"--results={tmp_path}", "--only=lattice/.*/seed0$"],
+                       cwd=REPO, capture_output=True, text=True, timeout=120)
+  assert res.returncode == 0, res.stderr[-2000:]
+  assert res.stdout.split() == ["to", "run", "lattice/halo/seed0", "to", "run",
+                                "lattice/hi_samples_16/seed0", "to", "run",
+                                "lattice/hi_samples_8/seed0"]
