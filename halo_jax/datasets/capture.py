@@ -166,6 +166,16 @@ def _images(cap: Capture, idx, factor: int):
   return np.stack(images), cap.focal * w / cap.width
 
 
+def _views(cap: Capture, cfg, cls):
+  """(train, test) views of class `cls` (Views or NDCViews) of the split."""
+  out = []
+  for idx in split(cap, cfg):
+    images, focal = _images(cap, idx, cfg.factor)
+    out.append(cls(images, cap.c2w[idx].astype(np.float32), float(focal),
+                   tuple(cap.names[i] for i in idx)))
+  return out
+
+
 def load_sphere(cfg, workdir="") -> Dataset:
   """data.kind='capture': a 360-degree capture with sphere rays."""
   del workdir
@@ -176,14 +186,8 @@ def load_sphere(cfg, workdir="") -> Dataset:
                     "(configs/capture.py:<k>view_ff)")
   c2w, _, near, far = to_sphere(cap)
   cap = dataclasses.replace(cap, c2w=c2w)
-  train, test = split(cap, cfg)
-  views = []
-  for idx in (train, test):
-    images, focal = _images(cap, idx, cfg.factor)
-    views.append(Views(images, c2w[idx].astype(np.float32), float(focal),
-                       tuple(cap.names[i] for i in idx)))
-  return Dataset(views[0], views[1], near, far, camera_radius(views[0].c2w), False,
-                 Geometry.SPHERE)
+  train, test = _views(cap, cfg, Views)
+  return Dataset(train, test, near, far, camera_radius(train.c2w), False, Geometry.SPHERE)
 
 
 def load_forward(cfg, workdir="") -> Dataset:
@@ -196,10 +200,5 @@ def load_forward(cfg, workdir="") -> Dataset:
                     "data.kind='capture' (configs/capture.py:<k>view)")
   c2w, bounds = llff.normalize_forward_facing(cap.c2w, forward_bounds(cap))
   cap = dataclasses.replace(cap, c2w=c2w)
-  train, test = split(cap, cfg)
-  views = []
-  for idx in (train, test):
-    images, focal = _images(cap, idx, cfg.factor)
-    views.append(llff.NDCViews(images, c2w[idx].astype(np.float32), float(focal),
-                               tuple(cap.names[i] for i in idx)))
-  return Dataset(views[0], views[1], 0.0, 1.0, 0.0, False, Geometry.NDC, depth_bounds=bounds)
+  train, test = _views(cap, cfg, llff.NDCViews)
+  return Dataset(train, test, 0.0, 1.0, 0.0, False, Geometry.NDC, depth_bounds=bounds)

@@ -66,8 +66,8 @@ def init_params(model, ray_model, seed):
 
 def models_from_config(config, name):
   cfg = config[name]
-  trains_guide = samplers.SAMPLERS.get(cfg.sampler.kind, f"{name}.sampler.kind").trains_guide
-  ray_model = ray_fields.epi_ray_field_from_config(cfg.joint) if trains_guide else None
+  ray_model = ray_fields.epi_ray_field_from_config(cfg.joint) if _sampler(cfg).trains_guide \
+      else None
   return models.nerf_from_config(config, name), ray_model
 
 
