@@ -17,10 +17,17 @@ def pixel_rays(c2w, height: int, width: int, focal: float):
   Returns:
     origins [H, W, 3], unit directions [H, W, 3] (numpy float32).
   """
+  return pinhole_rays(c2w, height, width, (focal, focal, 0.5 * width, 0.5 * height))
+
+
+def pinhole_rays(c2w, height: int, width: int, intrinsics):
+  """pixel_rays for any pinhole camera: intrinsics (fx, fy, cx, cy) in
+  pixels, the principal point (cx, cy) measured from the image's top-left
+  corner. Returns origins, unit directions [H, W, 3] (numpy float32)."""
+  fx, fy, cx, cy = (float(v) for v in intrinsics)
   c2w = np.asarray(c2w, np.float64)
   i, j = np.meshgrid(np.arange(width) + 0.5, np.arange(height) + 0.5, indexing="xy")
-  dirs_cam = np.stack([(i - 0.5 * width) / focal, -(j - 0.5 * height) / focal,
-                       -np.ones_like(i)], -1)
+  dirs_cam = np.stack([(i - cx) / fx, -(j - cy) / fy, -np.ones_like(i)], -1)
   dirs = dirs_cam @ c2w[:3, :3].T
   dirs /= np.linalg.norm(dirs, axis=-1, keepdims=True)
   origins = np.broadcast_to(c2w[:3, 3], dirs.shape)

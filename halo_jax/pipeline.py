@@ -57,8 +57,11 @@ def _restore(config, name, dataset, workdir):
     return state, json.load(f)
 
 
-def run(config, workdir: str, dataset=None) -> dict:
+def run(config, workdir: str, dataset=None, pacer=None) -> dict:
   """Runs `config.stages` in `workdir`; returns {stage: info} for the stages run.
+
+  dataset replaces the one config.data describes (a harness that hands the
+  views over); pacer (stages/pacing.py) lets a driver grant every step.
 
   The config is validated before any work (halo_jax.validate), and the
   workdir is locked for this process (workdir_lock: a second launch into it
@@ -69,10 +72,10 @@ def run(config, workdir: str, dataset=None) -> dict:
   # In a multi-process job the processes share the workdir; process 0 holds it.
   held = workdir_lock.hold(workdir) if parallel.is_primary() else contextlib.nullcontext()
   with held:
-    return _run(config, workdir, dataset)
+    return _run(config, workdir, dataset, pacer)
 
 
-def _run(config, workdir, dataset):
+def _run(config, workdir, dataset, pacer):
   check_workdir(config, workdir)
   config = with_budget(config)
   dataset = dataset or datasets.load(config.data, workdir)
@@ -96,7 +99,7 @@ def _run(config, workdir, dataset):
       # min_steps floor) takes the excess from the next, so the method trains
       # for budget_s; the last stage's floor is the only way past it.
       config[name].max_seconds = max(until[name] - wall, 1e-3)
-    ctx = base.StageContext(config, name, dataset, workdir, dict(states), log, wall, mesh)
+    ctx = base.StageContext(config, name, dataset, workdir, dict(states), log, wall, mesh, pacer)
     state, info = base.trainer_of(config, name).train(ctx)
     wall += info["wall_s"]
     info.update(step=int(state.step), cumulative_wall_s=wall)

@@ -22,7 +22,7 @@ LAYERS = (
      "workdir_lock"},
     {"stages", "tuning", "validate", "methods", "pipeline", "user_errors",
      "restore", "runs", "calibration", "evaluate.front"},
-    {"cli"},
+    {"cli", "integrations"},
 )
 
 

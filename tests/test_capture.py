@@ -75,7 +75,7 @@ def test_the_loader_normalises_and_splits_by_farthest_cameras(photo_folder):
   ds = datasets.load(c.data)
   assert len(ds.train.names) == 6 and not set(ds.train.names) & set(ds.test.names)
   # all cameras at the radius on average; the training ones near it
-  c2w, _, _, _ = capture.to_sphere(capture.read(root))
+  c2w, _, _, _, _ = capture.to_sphere(capture.read(root))
   assert abs(np.linalg.norm(c2w[:, :3, 3], axis=-1).mean() - capture.RADIUS) < 1e-6
   assert abs(ds.radius - capture.RADIUS) < 0.05 * capture.RADIUS
   # the object sits at the origin, inside [near, far] of every camera

@@ -110,6 +110,34 @@ class Dataset:
     return getattr(self.train, "times", None) is not None
 
 
+@dataclasses.dataclass(frozen=True)
+class Similarity:
+  """How a loader moved a scene into its frame: p' = scale * rotation @ p + shift.
+
+  Attributes:
+    rotation: [3, 3]; scale: a positive float; shift: [3].
+  """
+  rotation: np.ndarray
+  scale: float
+  shift: np.ndarray
+
+  @classmethod
+  def identity(cls):
+    return cls(np.eye(3), 1.0, np.zeros(3))
+
+  def poses(self, c2w):
+    """Camera-to-world [..., 3 or 4, 4] in the new frame, [..., 4, 4] float64."""
+    c2w = np.asarray(c2w, np.float64)
+    out = np.broadcast_to(np.eye(4), c2w.shape[:-2] + (4, 4)).copy()
+    out[..., :3, :3] = self.rotation @ c2w[..., :3, :3]
+    out[..., :3, 3] = self.scale * c2w[..., :3, 3] @ self.rotation.T + self.shift
+    return out
+
+  def points(self, points):
+    """Points [..., 3] in the new frame."""
+    return self.scale * np.asarray(points, np.float64) @ self.rotation.T + self.shift
+
+
 def camera_radius(c2w) -> float:
   return float(np.linalg.norm(np.asarray(c2w)[:, :3, 3], axis=-1).mean())
 

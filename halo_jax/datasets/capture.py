@@ -35,7 +35,8 @@ import tqdm
 
 from halo_jax.datasets import blender, colmap, llff, posed_photos
 from halo_jax.datasets.posed_photos import Capture
-from halo_jax.datasets.base import DataError, Dataset, Views, camera_radius, view_names
+from halo_jax.datasets.base import (DataError, Dataset, Similarity, Views, camera_radius,
+                                    view_names)
 from halo_jax.geometry import Geometry
 
 RADIUS = 4.03                 # camera distance of 360-degree captures, as the Blender scenes
@@ -98,24 +99,29 @@ def _up_to_z(up):
   return np.stack([x, np.cross(z, x), z])
 
 
+def sphere_frame(c2w) -> Similarity:
+  """The similarity that takes a 360-degree capture with camera-to-world
+  c2w [N, 4, 4] into the Blender scenes' frame: centred on the point its
+  cameras look at, +z up, cameras at RADIUS on average."""
+  focus = _focus(c2w)
+  rot = _up_to_z(c2w[:, :3, 1].mean(0))
+  scale = RADIUS / np.linalg.norm((c2w[:, :3, 3] - focus) @ rot.T, axis=-1).mean()
+  return Similarity(rot, float(scale), -scale * rot @ focus)
+
+
 def to_sphere(cap: Capture):
-  """(c2w [N, 4, 4], points or None, near, far) of a 360-degree capture in the
-  Blender scenes' frame: centred, +z up, cameras at RADIUS."""
-  focus = _focus(cap.c2w)
-  rot = _up_to_z(cap.c2w[:, :3, 1].mean(0))
-  world = np.eye(4)
-  world[:3, :3], world[:3, 3] = rot, -rot @ focus
-  c2w = world @ cap.c2w
-  scale = RADIUS / np.linalg.norm(c2w[:, :3, 3], axis=-1).mean()
-  c2w[:, :3, 3] *= scale
-  points = None if cap.points is None else scale * (cap.points - focus) @ rot.T
+  """(c2w [N, 4, 4], points or None, near, far, frame) of a 360-degree
+  capture in the Blender scenes' frame (sphere_frame)."""
+  frame = sphere_frame(cap.c2w)
+  c2w = frame.poses(cap.c2w)
+  points = None if cap.points is None else frame.points(cap.points)
   depths = [] if points is None else [z for z in point_depths(c2w, points) if z.size]
   if depths:
     near = 0.9 * min(np.percentile(z, 1) for z in depths)
     far = 1.1 * max(np.percentile(z, 99) for z in depths)
   else:  # no sparse points: the sphere's inside, seen from its surface
     near, far = 0.1 * RADIUS, 2.0 * RADIUS
-  return c2w, points, float(max(near, 1e-3)), float(far)
+  return c2w, points, float(max(near, 1e-3)), float(far), frame
 
 
 def forward_bounds(cap: Capture):
@@ -184,7 +190,7 @@ def load_sphere(cfg, workdir="") -> Dataset:
     raise DataError(f"{cfg.root}: every camera looks within {FORWARD_DEGREES:g} degrees of one "
                     "direction, a forward-facing capture: use data.kind='capture_ff' "
                     "(configs/capture.py:<k>view_ff)")
-  c2w, _, near, far = to_sphere(cap)
+  c2w, _, near, far, _ = to_sphere(cap)
   cap = dataclasses.replace(cap, c2w=c2w)
   train, test = _views(cap, cfg, Views)
   return Dataset(train, test, near, far, camera_radius(train.c2w), False, Geometry.SPHERE)

@@ -18,7 +18,7 @@ import numpy as np
 
 from halo_jax import camera
 from halo_jax.datasets import blender
-from halo_jax.datasets.base import DataError, Views
+from halo_jax.datasets.base import DataError, Similarity, Views
 
 BD_FACTOR = 0.75
 _IMAGE_EXT = (".png", ".jpg", ".jpeg")
@@ -73,18 +73,21 @@ def read_poses(root: str):
   return c2w, float(hwf[2]), (int(hwf[0]), int(hwf[1])), bounds
 
 
-def normalize_forward_facing(c2w, bounds):
-  """NeRF's LLFF normalisation of OpenGL camera-to-world [N, 3 or 4, 4] and
-  scene depth bounds [N, 2]: scaled so the nearest bound is 1 / BD_FACTOR,
-  recentred on the average pose. Returns ([N, 4, 4], [N, 2])."""
-  c2w = np.array(c2w[:, :3, :4], np.float64)
+def forward_frame(c2w, bounds) -> Similarity:
+  """NeRF's LLFF normalisation of a forward-facing scene with OpenGL
+  camera-to-world [N, 3 or 4, 4] and scene depth bounds [N, 2]: scaled so
+  the nearest bound is 1 / BD_FACTOR, recentred on the average pose."""
   scale = 1.0 / (bounds.min() * BD_FACTOR)
-  c2w[:, :, 3] *= scale
-  bounds = bounds * scale
-  bottom = np.broadcast_to([0, 0, 0, 1.0], (c2w.shape[0], 1, 4))
-  c2w = np.concatenate([c2w, bottom], 1)
-  avg = np.concatenate([average_pose(c2w), [[0, 0, 0, 1.0]]], 0)
-  return np.linalg.inv(avg) @ c2w, bounds
+  scaled = np.array(c2w[:, :3, :4], np.float64)
+  scaled[:, :, 3] *= scale
+  avg = np.linalg.inv(np.concatenate([average_pose(scaled), [[0, 0, 0, 1.0]]], 0))
+  return Similarity(avg[:3, :3], float(scale), avg[:3, 3])
+
+
+def normalize_forward_facing(c2w, bounds):
+  """forward_frame applied: ([N, 4, 4] camera-to-world, [N, 2] bounds)."""
+  frame = forward_frame(c2w, bounds)
+  return frame.poses(c2w), bounds * frame.scale
 
 
 def image_files(root: str, factor: int):

@@ -15,7 +15,8 @@ from halo_jax import geometry, registry
 class StageContext:
   """Everything a trainer gets: the run config, the stage's name, the data,
   the workdir, finished stages' states by name, the metrics log, training
-  seconds spent by earlier stages, and the data-parallel mesh (or None)."""
+  seconds spent by earlier stages, the data-parallel mesh (or None), and the
+  pacing.Pacer of a run driven step by step from outside (or None)."""
   config: Any
   name: str
   dataset: Any
@@ -24,6 +25,7 @@ class StageContext:
   log: Any = None
   wall_offset: float = 0.0
   mesh: Optional[Any] = None
+  pacer: Optional[Any] = None
 
   @property
   def cfg(self):

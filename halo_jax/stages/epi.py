@@ -310,7 +310,7 @@ def train(ctx: base.StageContext):
   params, step, info = loop.train(name, cfg, ctx.workdir,
                                   init_params(model, ray_model, config.seed), step_loss,
                                   data, config.seed, eval_fn, ctx.log, ctx.wall_offset, ctx.mesh,
-                                  snapshot_s=ctx.front_s)
+                                  snapshot_s=ctx.front_s, pacer=ctx.pacer)
   final = functools.partial(render_eval, (params, joint_window(cfg, step)))
   info["eval"] = evaluate.evaluate(final, dataset.test, config.eval.chunk,
                                    os.path.join(stage_dir(ctx.workdir, name), "eval"), 0.0, 1.0,

@@ -10,7 +10,7 @@ from typing import Callable, Optional
 import jax
 
 from halo_jax import checkpoint, parallel, tensorboard
-from halo_jax.stages import preemption, progress, snapshots
+from halo_jax.stages import pacing, preemption, progress, snapshots
 from halo_jax.stages.metrics_log import MetricsLog
 from halo_jax.stages.step import NONFINITE_WHAT, initial_state, make_step, optimizer, schedule
 
@@ -46,9 +46,10 @@ class _Run:
   """One stage's loop state: the train state, its clock and its records."""
 
   def __init__(self, name, cfg, train_state, wall_s, mngr, log, eval_fn, wall_offset,
-               board=None, snaps=None):
+               board=None, snaps=None, pacer=None):
     self.name, self.cfg, self.state, self.wall_s = name, cfg, train_state, wall_s
     self.snaps = snaps  # snapshots.Snapshots or None
+    self.pacer = pacer  # pacing.Pacer or None
     self.mngr, self.log, self.eval_fn, self.wall_offset = mngr, log, eval_fn, wall_offset
     self.last_eval_s, self.last_log = wall_s, int(train_state["step"])
     self.last_eval_step = None
@@ -140,6 +141,11 @@ class _Run:
       self.finish_step()
       self.snaps.save(step, self.state["params"], self.wall_offset + self.wall_s, times)
 
+  def paced(self, step, loss, aux):
+    """Hands the step to the driver of a paced run (stages/pacing.py)."""
+    metrics = {"loss": float(loss), **{k: float(v) for k, v in aux.items()}}
+    self.pacer.report(pacing.StepRecord(self.name, step, self.state["params"], metrics))
+
   def stop(self, step, signum):
     """Saves step `step` (logged, checkpointed) and raises Preempted."""
     self.finish_step()
@@ -169,7 +175,7 @@ class _Run:
 
 def train(name: str, cfg, workdir: str, params, loss_fn: Callable, data, seed: int,
           eval_fn: Optional[Callable] = None, log: Optional[MetricsLog] = None,
-          wall_offset: float = 0.0, mesh=None, snapshot_s=()):
+          wall_offset: float = 0.0, mesh=None, snapshot_s=(), pacer=None):
   """Trains `params` on `loss_fn` for cfg.steps (or cfg.max_seconds, but never
   fewer than cfg.min_steps) and returns them.
 
@@ -192,6 +198,7 @@ def train(name: str, cfg, workdir: str, params, loss_fn: Callable, data, seed: i
       replicated on it and loss_fn shards its batch.
     snapshot_s: the method's training seconds (wall_offset included) at which
       to save the parameters for its error-against-time front (snapshots.py).
+    pacer: a pacing.Pacer whose driver grants every step (or None: free).
 
   Returns:
     (params, step, info) with info = {'wall_s', 'skipped', 'compile_s'}:
@@ -205,7 +212,7 @@ def train(name: str, cfg, workdir: str, params, loss_fn: Callable, data, seed: i
   board = tensorboard.open_writer(workdir, name, start) if parallel.is_primary() else None
   snaps = (snapshots.Snapshots(workdir, name, snapshot_s, start, wall_offset + wall_s)
            if snapshot_s else None)
-  run = _Run(name, cfg, train_state, wall_s, mngr, log, eval_fn, wall_offset, board, snaps)
+  run = _Run(name, cfg, train_state, wall_s, mngr, log, eval_fn, wall_offset, board, snaps, pacer)
   data = parallel.replicate(data, mesh)
   base_key = jax.random.PRNGKey(seed)
   # Compiled before the clock starts: a time budget buys training steps, and
@@ -238,6 +245,8 @@ def _loop(run, step_fn, data, base_key, bar, start, cfg):
     if cfg.max_seconds and run.wall_s >= cfg.max_seconds and step > floor:
       step -= 1
       break
+    if run.pacer is not None:
+      run.pacer.wait_turn(run)
     t0 = time.perf_counter()
     run.state, loss, aux = step_fn(run.state, data, base_key)
     # Keep one step in flight: wait for the previous step, not this one, so
@@ -250,6 +259,8 @@ def _loop(run, step_fn, data, base_key, bar, start, cfg):
     run.wall_s += dt
     bar.advance(step, dt, run.wall_s)
     run.after_step(step, loss, aux, bar)
+    if run.pacer is not None:
+      run.paced(step, loss, aux)
     if preemption.requested() is not None:
       run.stop(step, preemption.requested())
   run.close(step)

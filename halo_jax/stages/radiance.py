@@ -242,7 +242,7 @@ def train(ctx: base.StageContext):
   step_loss = functools.partial(loss_fn, s=settings)
   params, step, info = loop.train(name, cfg, ctx.workdir, params, step_loss, data, config.seed,
                                   eval_fn, ctx.log, ctx.wall_offset + bank_s, ctx.mesh,
-                                  snapshot_s=ctx.front_s)
+                                  snapshot_s=ctx.front_s, pacer=ctx.pacer)
   info["wall_s"] += bank_s
   eval_dir = os.path.join(stage_dir(ctx.workdir, name), "eval")
   final = make_eval(params, step)

@@ -112,7 +112,7 @@ def train(ctx: base.StageContext):
   params, step, info = loop.train(name, cfg, ctx.workdir, init_params(config, name, ds),
                                   step_loss, data, config.seed, None, ctx.log,
                                   ctx.wall_offset + target_s, ctx.mesh,
-                                  snapshot_s=ctx.front_s)
+                                  snapshot_s=ctx.front_s, pacer=ctx.pacer)
   info["wall_s"] += target_s
   info.update(target_s=target_s, target_rays=int(data.train.depth.shape[0]))
   return StageState(params, step, config, name), info
