@@ -21,7 +21,7 @@ LAYERS = (
      "camera_paths", "view_pairs",
      "workdir_lock"},
     {"stages", "tuning", "validate", "methods", "pipeline", "user_errors",
-     "restore", "runs", "calibration", "evaluate.front"},
+     "restore", "runs", "calibration", "evaluate.front", "viewer"},
     {"cli", "integrations"},
 )
 

@@ -1,0 +1,132 @@
+"""The browser viewer's drawing (halo_jax/viewer.py) and command
+(halo_jax/cli/view.py): a camera at a held-out view draws what the
+evaluation rendered there; bad input is one line and exit 2."""
+import os
+import socket
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from conftest import pipeline_config
+from halo_jax import evaluate, pipeline, restore, viewer
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+
+@pytest.fixture(scope="module")
+def finished_run(scene_root, tmp_path_factory):
+  wd = str(tmp_path_factory.mktemp("run"))
+  pipeline.run(pipeline_config(scene_root, steps=2), wd)
+  return wd
+
+
+def test_poses_go_to_opencv_axes_and_back():
+  rng = np.random.default_rng(0)
+  q = rng.normal(size=4)
+  from halo_jax.cli import view  # pylint: disable=g-import-not-at-top
+  rot = view._rotation(q)  # pylint: disable=protected-access
+  np.testing.assert_allclose(rot @ rot.T, np.eye(3), atol=1e-12)
+  np.testing.assert_allclose(view._rotation(view._quaternion(rot)), rot, atol=1e-9)  # pylint: disable=protected-access
+  c2w = np.eye(4)
+  c2w[:3, :3], c2w[:3, 3] = rot, rng.normal(size=3)
+  r_cv, pos = viewer.opencv_pose(c2w)
+  # OpenCV looks down +z, OpenGL down -z: the same viewing direction
+  np.testing.assert_allclose(r_cv[:, 2], -c2w[:3, 2])
+  np.testing.assert_allclose(viewer.opengl_c2w(r_cv, pos), c2w, atol=1e-12)
+
+
+def test_a_camera_at_a_heldout_view_draws_what_evaluation_rendered(finished_run):
+  field = viewer.FieldView(finished_run)
+  assert field.stages == ["lo", "hi"]
+  test = field.dataset.test
+  cam = viewer.Camera(c2w=test.c2w[1], fov_y=viewer.fov_y(test))
+  run = restore.load(finished_run, "hi")
+  want = evaluate.render_views(run.render, test, run.config.eval.chunk, indices=[1])
+  got = field.render("hi", cam, test.height, test.width)
+  np.testing.assert_allclose(got["rgb"], want["rgb"][0], atol=1e-5)
+  for output in viewer.OUTPUTS:
+    image, seconds = field.draw("lo", cam, 20, 30, output)
+    assert image.shape == (20, 30, 3) and image.dtype == np.uint8 and seconds > 0
+  assert not np.array_equal(field.draw("hi", cam, 20, 30, "color")[0],
+                            field.draw("lo", cam, 20, 30, "color")[0])
+
+
+def _view(*args):
+  return subprocess.run([sys.executable, "-m", "halo_jax.cli.view", *args],
+                        capture_output=True, text=True, timeout=300, cwd=ROOT)
+
+
+@pytest.mark.slow
+def test_a_workdir_with_nothing_to_show_is_one_line(tmp_path):
+  r = _view(f"--workdir={tmp_path}")
+  assert r.returncode == 2 and "Traceback" not in r.stderr
+  assert r.stderr.strip().splitlines()[-1].startswith(f"error: {tmp_path}: no run here")
+
+
+@pytest.mark.slow
+def test_a_port_in_use_is_one_line(finished_run):
+  with socket.socket() as s:
+    s.bind(("127.0.0.1", 0))
+    s.listen()
+    port = s.getsockname()[1]
+    r = _view(f"--workdir={finished_run}", f"--port={port}")
+  assert r.returncode == 2 and "Traceback" not in r.stderr
+  assert f"--port={port}" in r.stderr.strip().splitlines()[-1]
+
+
+CHROMIUM = "/usr/bin/chromium"
+CHROMIUM_ARGS = ["--no-sandbox", "--disable-gpu", "--use-gl=swiftshader",
+                 "--enable-unsafe-swiftshader", "--disable-background-networking",
+                 "--disable-component-update", "--disable-sync", "--no-first-run"]
+
+
+def _wait(cond, seconds):
+  import time  # pylint: disable=g-import-not-at-top
+  end = time.time() + seconds
+  while not cond() and time.time() < end:
+    time.sleep(0.05)
+  return cond()
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not os.path.exists(CHROMIUM), reason="needs Debian's chromium")
+def test_the_page_in_a_real_browser_shows_the_field_and_follows_the_camera(finished_run,
+                                                                          tmp_path):
+  """halo-view's page in headless Chromium: the field is drawn (the page is
+  not blank), and moving the camera through the viewer's Python API changes
+  what the page shows."""
+  playwright = pytest.importorskip("playwright.sync_api")
+  import imageio.v2 as imageio  # pylint: disable=g-import-not-at-top
+  from halo_jax.cli import view  # pylint: disable=g-import-not-at-top
+  with socket.socket() as s:
+    s.bind(("127.0.0.1", 0))
+    port = s.getsockname()[1]
+  # frusta hidden: what changes on the page is the field alone
+  served = view.start(finished_run, port=port, size=48, cameras=False)
+  server, sessions = served.server, served.sessions
+  try:
+    with playwright.sync_playwright() as p:
+      browser = p.chromium.launch(executable_path=CHROMIUM, args=CHROMIUM_ARGS)
+      page = browser.new_page(viewport={"width": 480, "height": 360})
+      page.goto(f"http://127.0.0.1:{port}")
+      assert _wait(lambda: sessions, 60), "no browser tab connected"
+      session = next(iter(sessions.values()))
+      assert _wait(lambda: any(k == 1 for k, _ in session.timings), 120)
+      page.wait_for_timeout(1500)
+      page.screenshot(path=str(tmp_path / "before.png"))
+      cam = session.client.camera
+      n = len(session.timings)
+      cam.position = np.asarray(cam.position) * 1.5  # step back from the scene
+      session.request()
+      assert _wait(lambda: any(k == 1 for k, _ in session.timings[n:]), 120)
+      page.wait_for_timeout(1500)
+      page.screenshot(path=str(tmp_path / "after.png"))
+      browser.close()
+  finally:
+    server.stop()
+  before = imageio.imread(tmp_path / "before.png")[..., :3].astype(float)
+  after = imageio.imread(tmp_path / "after.png")[..., :3].astype(float)
+  assert before.std() > 10 and after.std() > 10, "a blank page"
+  assert np.abs(before - after).mean() > 5, "the page did not follow the camera"
