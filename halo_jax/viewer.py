@@ -9,18 +9,19 @@ add a time in [0, 1]. Outputs are colour, depth (turbo, near to far of the
 visible pixels) and opacity, as uint8 [H, W, 3].
 """
 import dataclasses
+import json
 import os
 import time
-from typing import Dict, Optional, Tuple
+from typing import Any, Dict, Optional, Tuple
 
 import numpy as np
 
-from halo_jax import checkpoint, raycast, restore, video
+from halo_jax import checkpoint, datasets, raycast, restore, video, workdir_lock
 from halo_jax.datasets.base import Views
 from halo_jax.datasets.llff import NDCViews
 from halo_jax.datasets.stanford_lf import LightFieldViews
 from halo_jax.geometry import Geometry
-from halo_jax.stages import base, order
+from halo_jax.stages import base, order, state, step as steps
 
 OUTPUTS = ("color", "depth", "opacity")
 CHUNK = 4096  # rays per jitted call: a 64x64 preview is one call
@@ -36,38 +37,78 @@ class Camera:
   time: float = 0.0
 
 
-def drawable_stages(workdir: str):
-  """The stages of the run in `workdir` that finished and make images, in
-  training order; NothingToRestore when there is none."""
+def _read_run_config(workdir: str):
   path = os.path.join(workdir, "config.json")
   if not os.path.exists(path):
     raise restore.NothingToRestore(f"{workdir}: no run here (no config.json); train one first "
                                    "(halo-train --config=... --workdir=DIR)")
-  config = checkpoint.read_config(path)
-  names = [n for n in order.needed(config) if restore.finished(workdir, n)
-           and base.trainer_of(config, n).renderer is not None]
-  if not names:
-    raise restore.NothingToRestore(f"{workdir}: no finished stage that makes images yet "
-                                   "(the viewer shows a stage once it has finished)")
-  return names
+  return checkpoint.read_config(path)
+
+
+def _draws(config, name) -> bool:
+  return base.trainer_of(config, name).renderer is not None
+
+
+def drawable_stages(workdir: str):
+  """The finished stages of the run in `workdir` that make images, in
+  training order."""
+  config = _read_run_config(workdir)
+  return [n for n in order.needed(config) if restore.finished(workdir, n) and _draws(config, n)]
+
+
+def training_stage(workdir: str):
+  """(stage, step) of the stage in training with a checkpoint, or None."""
+  config = _read_run_config(workdir)
+  for n in order.needed(config):
+    if restore.finished(workdir, n):
+      continue
+    folder = os.path.join(state.stage_dir(workdir, n), "checkpoints")
+    saved = (checkpoint.manager(folder, max_to_keep=None).all_steps()
+             if os.path.isdir(folder) else [])
+    return (n, max(saved)) if saved else None
+  return None
 
 
 class FieldView:
-  """The run in `workdir`, each drawable stage restored on first use."""
+  """The run in `workdir`: its finished stages that make images, each
+  restored on first use, and the stage in training at its latest checkpoint
+  (`refresh` looks again). NothingToRestore when there is nothing to show
+  and no training holds the workdir."""
 
   def __init__(self, workdir: str, data_root: str = ""):
     self.workdir, self.data_root = workdir, data_root
-    self.stages = drawable_stages(workdir)
-    self._runs: Dict[str, restore.Restored] = {}
+    self.config = _read_run_config(workdir)
+    if data_root:
+      self.config.data.root = data_root
+    self.dataset = datasets.load(self.config.data, workdir)
+    self._runs: Dict[str, Any] = {}
+    self.stages, self.live = [], None
+    self.refresh()
+    if not self.stages and not workdir_lock.is_held(workdir):
+      raise restore.NothingToRestore(f"{workdir}: no finished stage that makes images, and "
+                                     "no training running there")
 
-  def run(self, stage: str) -> restore.Restored:
+  def refresh(self) -> bool:
+    """Looks for newly finished stages and checkpoints; True if any."""
+    done = drawable_stages(self.workdir)
+    live = training_stage(self.workdir)
+    if live is not None and not _draws(self.config, live[0]):
+      live = None  # the ray field makes no image of its own
+    stages = done + ([live[0]] if live else [])
+    changed = (stages, live) != (self.stages, self.live)
+    if changed:
+      self._runs = {n: r for n, r in self._runs.items() if n in done}
+      self.stages, self.live = stages, live
+    return changed
+
+  def run(self, stage: str):
+    """The stage's renderer holder (a restore.Restored, or the live one)."""
     if stage not in self._runs:
-      self._runs[stage] = restore.load(self.workdir, stage, self.data_root)
+      if self.live and stage == self.live[0]:
+        self._runs[stage] = _live_run(self, stage)
+      else:
+        self._runs[stage] = restore.load(self.workdir, stage, self.data_root)
     return self._runs[stage]
-
-  @property
-  def dataset(self):
-    return self.run(self.stages[-1]).dataset
 
   def _views(self, cam: Camera, height: int, width: int):
     ds = self.dataset
@@ -95,6 +136,46 @@ class FieldView:
     t0 = time.perf_counter()
     r = self.render(stage, cam, height, width)
     return to_image(r, output), time.perf_counter() - t0
+
+
+@dataclasses.dataclass(frozen=True)
+class LiveRun:
+  """A stage in training drawn at one checkpoint: its step and renderer."""
+  step: int
+  render: Any
+
+
+def _live_run(field: FieldView, name: str) -> LiveRun:
+  """The training stage `name` at its latest checkpoint, with the finished
+  stages it reads, as the renderer its final evaluation will use."""
+  config, ds = field.config, field.dataset
+  trainer = base.trainer_of(config, name)
+  like = steps.initial_state(trainer.params_like(config, name, ds),
+                             steps.optimizer(config[name]))
+  mngr = checkpoint.manager(os.path.join(state.stage_dir(field.workdir, name), "checkpoints"),
+                            max_to_keep=None)
+  at = field.live[1]
+  params = checkpoint.restore(mngr, at, dict(like, wall_s=0.0))["params"]
+  states = {}
+  for n in [n for n in order.needed(config, name) if n != name]:
+    states[n] = state.load(field.workdir, n, base.trainer_of(config, n).params_like(config, n, ds))
+  states[name] = state.StageState(params, at, config, name)
+  return LiveRun(at, trainer.renderer(config, name, ds, states))
+
+
+def read_records(workdir: str):
+  """metrics.jsonl's records so far (a line being written is skipped)."""
+  path = os.path.join(workdir, "metrics.jsonl")
+  if not os.path.exists(path):
+    return []
+  out = []
+  with open(path) as f:
+    for line in f:
+      try:
+        out.append(json.loads(line))
+      except ValueError:
+        pass
+  return out
 
 
 def to_image(r, output: str) -> np.ndarray:

@@ -79,3 +79,21 @@ def hold(workdir: str):
 
 
 _HELD = {}
+
+
+def is_held(workdir: str) -> bool:
+  """Whether a process (a training run) holds `workdir`'s lock now; the
+  probe takes no lock that outlives it."""
+  path = os.path.abspath(os.path.join(workdir, LOCK_FILE))
+  if path in _HELD:
+    return True
+  try:
+    with open(path) as f:
+      try:
+        fcntl.flock(f, fcntl.LOCK_SH | fcntl.LOCK_NB)
+      except BlockingIOError:
+        return True
+      fcntl.flock(f, fcntl.LOCK_UN)
+      return False
+  except OSError:
+    return False

@@ -105,7 +105,7 @@ def test_the_page_in_a_real_browser_shows_the_field_and_follows_the_camera(finis
     port = s.getsockname()[1]
   # frusta hidden: what changes on the page is the field alone
   served = view.start(finished_run, port=port, size=48, cameras=False)
-  server, sessions = served.server, served.sessions
+  sessions = served.sessions
   try:
     with playwright.sync_playwright() as p:
       browser = p.chromium.launch(executable_path=CHROMIUM, args=CHROMIUM_ARGS)
@@ -125,8 +125,40 @@ def test_the_page_in_a_real_browser_shows_the_field_and_follows_the_camera(finis
       page.screenshot(path=str(tmp_path / "after.png"))
       browser.close()
   finally:
-    server.stop()
+    served.close()
   before = imageio.imread(tmp_path / "before.png")[..., :3].astype(float)
   after = imageio.imread(tmp_path / "after.png")[..., :3].astype(float)
   assert before.std() > 10 and after.std() > 10, "a blank page"
   assert np.abs(before - after).mean() > 5, "the page did not follow the camera"
+
+
+@pytest.mark.slow
+def test_a_run_still_training_shows_its_latest_checkpoint_and_curves(scene_root, tmp_path):
+  """Pointed at a run paused in Hi-NeRF (stepped from this thread,
+  stages/pacing.py), the viewer lists Hi at its latest checkpoint beside the
+  finished Lo, draws it, and follows the next checkpoint."""
+  from halo_jax import plots  # pylint: disable=g-import-not-at-top
+  from halo_jax.stages import pacing  # pylint: disable=g-import-not-at-top
+  wd = str(tmp_path / "run")
+  c = pipeline_config(scene_root, steps=4)
+  paced = pacing.Paced(lambda p: pipeline.run(c, wd, None, p))
+  while (rec := paced.step()).stage != "hi" or rec.step < 2:
+    pass
+  def save_now(run):  # a checkpoint at the step reached (the loop's own may be there)
+    if run.mngr.latest_step() != int(run.state["step"]):
+      run.save(int(run.state["step"]))
+  paced.pacer.call(save_now)
+  field = viewer.FieldView(wd)
+  assert field.stages == ["lo", "hi"] and field.live == ("hi", 2)
+  cam = viewer.Camera(c2w=field.dataset.test.c2w[0], fov_y=viewer.fov_y(field.dataset.test))
+  at_two = field.draw("hi", cam, 16, 16)[0]
+  assert not np.array_equal(at_two, field.draw("lo", cam, 16, 16)[0])
+  paced.step()
+  paced.pacer.call(save_now)
+  assert field.refresh() and field.live == ("hi", 3)
+  assert not np.array_equal(at_two, field.draw("hi", cam, 16, 16)[0])
+  image = plots.training_curves(viewer.read_records(wd))
+  assert image.ndim == 3 and image.std() > 0
+  paced.step()
+  paced.join()
+  assert field.refresh() and field.live is None and field.stages == ["lo", "hi"]

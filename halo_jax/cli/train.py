@@ -11,11 +11,14 @@ from absl import app, flags, logging
 from ml_collections import config_flags
 
 from halo_jax import config_files, parallel, pipeline, user_errors
+from halo_jax.cli import view
 
 FLAGS = flags.FLAGS
 config_flags.DEFINE_config_file("config", None, "Config file (path[:variant]).",
                                 lock_config=True)
 flags.DEFINE_string("workdir", None, "Folder for checkpoints, logs and renders.")
+flags.DEFINE_bool("view", False, "Also open halo-view on the run, in a process of its own.")
+flags.DEFINE_integer("view_port", 8080, "The viewer's port (with --view).")
 flags.mark_flags_as_required(["config", "workdir"])
 
 
@@ -23,6 +26,9 @@ def main(argv):
   del argv
   logging.set_verbosity(logging.WARNING)  # orbax logs every save at INFO
   with user_errors.reported():
+    if FLAGS.view:
+      view.check_port("127.0.0.1", FLAGS.view_port)
+      view.launch_beside(FLAGS.workdir, FLAGS.view_port)
     parallel.initialize(FLAGS.config.parallel)
     infos = pipeline.run(FLAGS.config, FLAGS.workdir)
   print(pipeline.table(infos))
