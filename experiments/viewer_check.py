@@ -125,6 +125,13 @@ def check(kind, workdir, page_of, png):
       pass
     page.wait_for_timeout(1500)
     page.screenshot(path=png)
+    if "window misses" in controls["output"].options:  # HALO's Hi: where the window misses
+      n = len(session.timings)
+      controls["output"].value = "window misses"
+      assert _wait(lambda: _settled(session, n))
+      page.wait_for_timeout(1500)
+      page.screenshot(path=png.replace(".png", "_window.png"))
+      controls["output"].value = "color"
     moves = []
     for i in range(FLAGS.moves):
       n = len(session.timings)

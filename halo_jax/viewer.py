@@ -16,7 +16,7 @@ from typing import Any, Dict, Optional, Tuple
 
 import numpy as np
 
-from halo_jax import checkpoint, datasets, raycast, restore, video, workdir_lock
+from halo_jax import checkpoint, datasets, raycast, restore, samplers, video, workdir_lock
 from halo_jax.datasets.base import Views
 from halo_jax.datasets.llff import NDCViews
 from halo_jax.datasets.stanford_lf import LightFieldViews
@@ -24,6 +24,8 @@ from halo_jax.geometry import Geometry
 from halo_jax.stages import base, order, state, step as steps
 
 OUTPUTS = ("color", "depth", "opacity")
+# where a ray field places the stage's samples (guided stages: HALO's Hi)
+GUIDE_OUTPUTS = ("ray field depth", "window misses")
 CHUNK = 4096  # rays per jitted call: a 64x64 preview is one call
 
 
@@ -129,20 +131,49 @@ class FieldView:
     out = raycast.render_chunked(self.run(stage).render, o, d, CHUNK, t)
     return {k: v[0] for k, v in out.items()}
 
+  def guide(self, stage: str):
+    """(Guide, sampler config) of the ray field placing `stage`'s samples, or None."""
+    key = ("guide", stage)
+    if key not in self._runs:
+      run, trainer = self.run(stage), base.trainer_of(self.config, stage)
+      self._runs[key] = trainer.guide and trainer.guide(run.config, stage, self.dataset,
+                                                        run.states)
+    return self._runs[key]
+
+  def outputs(self, stage: str):
+    return OUTPUTS + (GUIDE_OUTPUTS if self.guide(stage) else ())
+
   def draw(self, stage: str, cam: Camera, height: int, width: int, output: str = "color"):
-    """uint8 [H, W, 3] of `output` (one of OUTPUTS) and the seconds it took."""
-    if output not in OUTPUTS:
-      raise ValueError(f"output {output!r}: use one of {OUTPUTS}")
+    """uint8 [H, W, 3] of `output` (one of self.outputs(stage)) and the
+    seconds it took."""
+    if output not in self.outputs(stage):
+      raise ValueError(f"output {output!r}: stage {stage} has {self.outputs(stage)}")
     t0 = time.perf_counter()
     r = self.render(stage, cam, height, width)
+    if output in GUIDE_OUTPUTS:
+      r = self._with_guide(stage, cam, r, height, width)
     return to_image(r, output), time.perf_counter() - t0
+
+  def _with_guide(self, stage, cam, r, height, width):
+    """r plus the ray field's depth on the same rays and where the stage's
+    depth falls outside the window the guided sampler fills."""
+    guide, sampler = self.guide(stage)
+    o, d = self._views(cam, height, width).rays()
+    depth, _ = raycast.ray_field_depth(guide, o[0], d[0])
+    lo, hi = samplers.depth_window(depth, self.dataset.near, self.dataset.far, sampler.window,
+                                   sampler.near_only)
+    miss = (r["acc"] > 0.5) & ((r["depth"] < np.asarray(lo)) | (r["depth"] > np.asarray(hi)))
+    return dict(r, ray_depth=np.asarray(depth), miss=np.asarray(miss))
 
 
 @dataclasses.dataclass(frozen=True)
 class LiveRun:
-  """A stage in training drawn at one checkpoint: its step and renderer."""
+  """A stage in training drawn at one checkpoint: its step, renderer, config
+  and the states it reads (as a restore.Restored has them)."""
   step: int
   render: Any
+  config: Any
+  states: Dict[str, Any]
 
 
 def _live_run(field: FieldView, name: str) -> LiveRun:
@@ -160,7 +191,7 @@ def _live_run(field: FieldView, name: str) -> LiveRun:
   for n in [n for n in order.needed(config, name) if n != name]:
     states[n] = state.load(field.workdir, n, base.trainer_of(config, n).params_like(config, n, ds))
   states[name] = state.StageState(params, at, config, name)
-  return LiveRun(at, trainer.renderer(config, name, ds, states))
+  return LiveRun(at, trainer.renderer(config, name, ds, states), config, states)
 
 
 def read_records(workdir: str):
@@ -184,9 +215,13 @@ def to_image(r, output: str) -> np.ndarray:
     return video.to_uint8(np.clip(r["rgb"], 0.0, 1.0))
   if output == "opacity":
     return video.to_uint8(np.repeat(np.clip(r["acc"], 0.0, 1.0)[..., None], 3, -1))
+  if output == "window misses":  # the colour, greyed, red where the window misses
+    grey = np.repeat(np.clip(r["rgb"], 0, 1).mean(-1, keepdims=True), 3, -1) * 0.6 + 0.2
+    return video.to_uint8(np.where(r["miss"][..., None], [1.0, 0.1, 0.1], grey))
   seen = r["acc"] > 0.5
   lo, hi = np.percentile(r["depth"][seen], [1, 99]) if seen.any() else (0.0, 1.0)
-  return video.to_uint8(video.colorize(r["depth"], lo, max(hi, lo + 1e-6), mask=seen))
+  depth = r["ray_depth"] if output == "ray field depth" else r["depth"]
+  return video.to_uint8(video.colorize(depth, lo, max(hi, lo + 1e-6), mask=seen))
 
 
 def opencv_pose(c2w):

@@ -162,3 +162,25 @@ def test_a_run_still_training_shows_its_latest_checkpoint_and_curves(scene_root,
   paced.step()
   paced.join()
   assert field.refresh() and field.live is None and field.stages == ["lo", "hi"]
+
+
+def test_hi_shows_where_its_depth_leaves_the_ray_fields_window(finished_run):
+  """HALO's Hi is guided: the viewer adds the ray field's depth and the
+  pixels whose rendered depth lies outside the sampling window; Lo is not."""
+  from halo_jax import samplers  # pylint: disable=g-import-not-at-top
+  field = viewer.FieldView(finished_run)
+  assert field.outputs("lo") == viewer.OUTPUTS
+  assert field.outputs("hi") == viewer.OUTPUTS + viewer.GUIDE_OUTPUTS
+  test = field.dataset.test
+  cam = viewer.Camera(c2w=test.c2w[0], fov_y=viewer.fov_y(test))
+  r = field.render("hi", cam, 12, 12)
+  r = field._with_guide("hi", cam, r, 12, 12)  # pylint: disable=protected-access
+  guide, sampler = field.guide("hi")
+  lo, hi = samplers.depth_window(r["ray_depth"], field.dataset.near, field.dataset.far,
+                                 sampler.window, sampler.near_only)
+  outside = (r["depth"] < np.asarray(lo)) | (r["depth"] > np.asarray(hi))
+  np.testing.assert_array_equal(r["miss"], outside & (r["acc"] > 0.5))
+  image, _ = field.draw("hi", cam, 12, 12, "window misses")
+  red = (image[..., 0] > 200) & (image[..., 1] < 60)
+  np.testing.assert_array_equal(red, r["miss"])
+  assert guide.geometry == field.dataset.geometry

@@ -178,7 +178,9 @@ def add_controls(server, field: viewer.FieldView, first_stage: str):
   c = {"status": server.gui.add_markdown(_status(field)),
        "stage": server.gui.add_dropdown("stage", tuple(field.stages) or ("-",),
                                         initial_value=first_stage),
-       "output": server.gui.add_dropdown("output", viewer.OUTPUTS, initial_value="color")}
+       "output": server.gui.add_dropdown(
+           "output", field.outputs(first_stage) if field.stages else viewer.OUTPUTS,
+           initial_value="color")}
   if ds.dynamic:
     c["time"] = server.gui.add_slider("time", 0.0, 1.0, 0.01, 0.0)
   if ds.geometry == Geometry.TWO_PLANE:
@@ -242,6 +244,14 @@ def start(workdir, stage=None, host="127.0.0.1", port=8080, size=100, data_root=
       client.camera.wxyz, client.camera.position = _quaternion(rot), pos
       client.camera.fov = viewer.fov_y(first)
     sessions[client.client_id] = Session(client, field, controls, size)
+
+  @controls["stage"].on_update
+  def _(_):  # a guided stage adds the ray field's depth and window
+    if controls["stage"].value in field.stages:
+      outputs = field.outputs(controls["stage"].value)
+      if controls["output"].value not in outputs:
+        controls["output"].value = "color"
+      controls["output"].options = outputs
 
   for key in ("stage", "output", "time", "uv"):
     if key not in controls:

@@ -45,13 +45,16 @@ class Trainer:
   -> (StageState, info); check(config, name, dataset_spec) raises ConfigError
   for combinations it cannot train (run before any work); renderer(config,
   name, dataset, states) -> fn(o, d[, t]) -> {'rgb', 'depth', 'acc', ...} of
-  the finished stage states[name] (None for stages that make no images)."""
+  the finished stage states[name] (None for stages that make no images);
+  guide(config, name, dataset, states) -> (raycast.Guide, sampler config) of
+  the ray field that places the stage's samples, or None (None: never)."""
   requires: Callable
   params_like: Callable
   train: Callable
   check: Callable
   geometries: frozenset = geometry.ALL
   renderer: Optional[Callable] = None
+  guide: Optional[Callable] = None
 
 
 TRAINERS = registry.Registry[Trainer]("stage trainer")

@@ -264,6 +264,18 @@ def renderer(config, name, dataset, states):
   return make_eval(states[name].params, int(states[name].step))
 
 
+def guide(config, name, dataset, states):
+  """(the raycast.Guide that places states[name]'s samples, its sampler
+  config), or None for a sampler no ray field guides."""
+  ctx = base.StageContext(config, name, dataset, "", states)
+  settings, guide_params = _stage_settings(ctx, config[name])
+  if not settings.sampler.guided:
+    return None
+  params = states[name].params["ray"] if settings.sampler.trains_guide else guide_params
+  return (raycast.Guide(settings.guide_model, params, settings.geometry, settings.radius),
+          config[name].sampler)
+
+
 base.TRAINERS.register("radiance", base.Trainer(
     requires=requires, params_like=init_params, train=train, check=check,
-    geometries=geometry.SPATIAL, renderer=renderer))
+    geometries=geometry.SPATIAL, renderer=renderer, guide=guide))
