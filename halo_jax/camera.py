@@ -34,6 +34,17 @@ def pinhole_rays(c2w, height: int, width: int, intrinsics):
   return origins.astype(np.float32), dirs.astype(np.float32)
 
 
+def opencv_to_opengl(c2w):
+  """Camera-to-world [..., 3 or 4, 4] with OpenCV axes (x right, y down,
+  looking down +z) as [..., 4, 4] with OpenGL's (y up, looking down -z), or
+  back: flipping the y and z axes is its own inverse."""
+  c2w = np.asarray(c2w, np.float64)
+  out = np.broadcast_to(np.eye(4), c2w.shape[:-2] + (4, 4)).copy()
+  out[..., :3, :4] = c2w[..., :3, :4]
+  out[..., :3, 1:3] *= -1
+  return out
+
+
 def look_at(position, target=(0.0, 0.0, 0.0), up=(0.0, 0.0, 1.0)):
   """Camera-to-world [4, 4] for a camera at `position` looking at `target`."""
   position = np.asarray(position, np.float64)

@@ -41,6 +41,13 @@ def default_stage(workdir: str) -> Optional[str]:
                and base.trainer_of(config, n).renderer is not None), None)
 
 
+def stage_states(workdir: str, config, dataset, names) -> Dict[str, Any]:
+  """{name: StageState} of the finished stages `names` (StageMissing names
+  one that has not finished)."""
+  return {n: state.load(workdir, n, base.trainer_of(config, n).params_like(config, n, dataset))
+          for n in names}
+
+
 def load(workdir: str, stage: Optional[str] = None, data_root: str = "") -> Restored:
   """Restores `stage` (default: default_stage) of the run in `workdir`.
 
@@ -60,9 +67,6 @@ def load(workdir: str, stage: Optional[str] = None, data_root: str = "") -> Rest
   if data_root:
     config.data.root = data_root
   dataset = datasets.load(config.data, workdir)
-  states = {}
-  for n in order.needed(config, name):
-    like = base.trainer_of(config, n).params_like(config, n, dataset)
-    states[n] = state.load(workdir, n, like)
+  states = stage_states(workdir, config, dataset, order.needed(config, name))
   return Restored(workdir, config, name, dataset, states,
                   trainer.renderer(config, name, dataset, states))

@@ -16,7 +16,7 @@ from typing import Any, Dict, Optional, Tuple
 
 import numpy as np
 
-from halo_jax import checkpoint, datasets, raycast, restore, samplers, video, workdir_lock
+from halo_jax import camera, checkpoint, datasets, raycast, restore, samplers, video, workdir_lock
 from halo_jax.datasets.base import Views
 from halo_jax.datasets.llff import NDCViews
 from halo_jax.datasets.stanford_lf import LightFieldViews
@@ -84,6 +84,7 @@ class FieldView:
       self.config.data.root = data_root
     self.dataset = datasets.load(self.config.data, workdir)
     self._runs: Dict[str, Any] = {}
+    self._guides: Dict[str, Any] = {}
     self.stages, self.live = [], None
     self.refresh()
     if not self.stages and not workdir_lock.is_held(workdir):
@@ -100,6 +101,7 @@ class FieldView:
     changed = (stages, live) != (self.stages, self.live)
     if changed:
       self._runs = {n: r for n, r in self._runs.items() if n in done}
+      self._guides = {n: g for n, g in self._guides.items() if n in done}
       self.stages, self.live = stages, live
     return changed
 
@@ -133,12 +135,11 @@ class FieldView:
 
   def guide(self, stage: str):
     """(Guide, sampler config) of the ray field placing `stage`'s samples, or None."""
-    key = ("guide", stage)
-    if key not in self._runs:
+    if stage not in self._guides:
       run, trainer = self.run(stage), base.trainer_of(self.config, stage)
-      self._runs[key] = trainer.guide and trainer.guide(run.config, stage, self.dataset,
-                                                        run.states)
-    return self._runs[key]
+      self._guides[stage] = trainer.guide and trainer.guide(run.config, stage, self.dataset,
+                                                            run.states)
+    return self._guides[stage]
 
   def outputs(self, stage: str):
     return OUTPUTS + (GUIDE_OUTPUTS if self.guide(stage) else ())
@@ -187,9 +188,8 @@ def _live_run(field: FieldView, name: str) -> LiveRun:
                             max_to_keep=None)
   at = field.live[1]
   params = checkpoint.restore(mngr, at, dict(like, wall_s=0.0))["params"]
-  states = {}
-  for n in [n for n in order.needed(config, name) if n != name]:
-    states[n] = state.load(field.workdir, n, base.trainer_of(config, n).params_like(config, n, ds))
+  states = restore.stage_states(field.workdir, config, ds,
+                                [n for n in order.needed(config, name) if n != name])
   states[name] = state.StageState(params, at, config, name)
   return LiveRun(at, trainer.renderer(config, name, ds, states), config, states)
 
@@ -227,16 +227,15 @@ def to_image(r, output: str) -> np.ndarray:
 def opencv_pose(c2w):
   """OpenGL camera-to-world [4, 4] -> (rotation [3, 3], position [3]) with
   OpenCV axes (x right, y down, looking down +z), as viser takes cameras."""
-  c2w = np.asarray(c2w, np.float64)
-  return c2w[:3, :3] @ np.diag([1.0, -1.0, -1.0]), c2w[:3, 3].copy()
+  cv = camera.opencv_to_opengl(c2w)  # its own inverse
+  return cv[:3, :3], cv[:3, 3]
 
 
 def opengl_c2w(rotation, position):
   """opencv_pose's inverse: [4, 4] OpenGL camera-to-world."""
-  out = np.eye(4)
-  out[:3, :3] = np.asarray(rotation, np.float64) @ np.diag([1.0, -1.0, -1.0])
-  out[:3, 3] = position
-  return out
+  cv = np.eye(4)
+  cv[:3, :3], cv[:3, 3] = rotation, position
+  return camera.opencv_to_opengl(cv)
 
 
 def fov_y(views) -> float:

@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 
 from conftest import pipeline_config, tiny_config
-from halo_jax import datasets, pipeline, restore
+from halo_jax import camera, datasets, pipeline, restore
 from halo_jax.datasets import capture
 from halo_jax.integrations import nerfbaselines_method as nbm
 from halo_jax.integrations import nerfbaselines_scene as nbs
@@ -86,7 +86,7 @@ def test_a_harness_camera_gives_the_rays_of_its_view_in_every_frame(scene_root):
       np.testing.assert_allclose(co, o[i], atol=1e-5)
       np.testing.assert_allclose(cd, d[i], atol=1e-5)
   # the capture frame is the one capture.py gives the same cameras
-  frame = capture.sphere_frame(nbs.opencv_to_opengl(nb["cameras"].poses))
+  frame = capture.sphere_frame(camera.opencv_to_opengl(nb["cameras"].poses))
   np.testing.assert_allclose(scene.frame.scale, frame.scale)
   centres = np.linalg.norm(scene.dataset.train.c2w[:, :3, 3], axis=-1)
   assert centres.mean() == pytest.approx(capture.RADIUS, rel=1e-5)

@@ -127,11 +127,10 @@ class Session:
 
 
 def _rotation(wxyz):
-  """A unit quaternion (w, x, y, z) as a rotation matrix [3, 3]."""
-  w, x, y, z = wxyz / np.linalg.norm(wxyz)
-  return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
-                   [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
-                   [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])
+  """A quaternion (w, x, y, z) as a rotation matrix [3, 3] (viser's own)."""
+  import viser.transforms as vtf  # pylint: disable=g-import-not-at-top
+  wxyz = np.asarray(wxyz, np.float64)
+  return vtf.SO3(wxyz / np.linalg.norm(wxyz)).as_matrix()
 
 
 def _quaternion(rot):

@@ -38,7 +38,7 @@ from absl import logging as absl_logging
 import ml_collections
 import numpy as np
 
-from halo_jax import checkpoint as checkpoints, pipeline, raycast, runs
+from halo_jax import checkpoint as checkpoints, pipeline, raycast, restore, runs
 from halo_jax.datasets.base import Dataset, Similarity, Views
 from halo_jax.geometry import Geometry
 from halo_jax.integrations import nerfbaselines_scene as nb_scene
@@ -185,12 +185,9 @@ class HaloMethod:
   # Rendering.
   def _finished_states(self):
     """{name: StageState} of the stages finished in the workdir."""
-    out = {}
-    for n in order.needed(self.config):
-      if os.path.exists(os.path.join(state.stage_dir(self.workdir, n), "final", "config.json")):
-        like = base.trainer_of(self.config, n).params_like(self.config, n, self.scene.dataset)
-        out[n] = state.load(self.workdir, n, like)
-    return out
+    return restore.stage_states(self.workdir, self.config, self.scene.dataset,
+                                [n for n in order.needed(self.config)
+                                 if restore.finished(self.workdir, n)])
 
   def _renderer(self):
     """fn(o, d) -> {'rgb', 'depth', 'acc'} of the newest field: the stage in
@@ -270,7 +267,7 @@ class HaloMethod:
             "frame": {"rotation": np.asarray(frame.rotation).tolist(), "scale": frame.scale,
                       "shift": np.asarray(frame.shift).tolist()}}
     with open(os.path.join(path, META_FILE), "w") as f:
-      json.dump(_plain(meta), f, indent=1)
+      json.dump(meta, f, indent=1)
 
 
 def _checkpoint_now(run) -> None:
@@ -278,16 +275,3 @@ def _checkpoint_now(run) -> None:
   step = int(run.state["step"])
   if run.mngr.latest_step() != step:
     run.save(step)
-
-
-def _plain(x):
-  """JSON-ready copy of overrides that may hold numpy scalars."""
-  if isinstance(x, dict):
-    return {k: _plain(v) for k, v in x.items()}
-  if isinstance(x, (list, tuple)):
-    return [_plain(v) for v in x]
-  if isinstance(x, np.generic):
-    return x.item()
-  return x
-
-

@@ -44,16 +44,6 @@ class Scene:
   ndc_camera: Tuple[int, int, float]
 
 
-def opencv_to_opengl(poses):
-  """Camera-to-world [..., 3, 4] with OpenCV axes (x right, y down, looking
-  down +z) as [..., 4, 4] with OpenGL's (y up, looking down -z)."""
-  poses = np.asarray(poses, np.float64)
-  out = np.broadcast_to(np.eye(4), poses.shape[:-2] + (4, 4)).copy()
-  out[..., :3, :4] = poses[..., :3, :4]
-  out[..., :3, 1:3] *= -1
-  return out
-
-
 def kind_of(nb) -> str:
   """'object' for the Blender layout, else 'forward' or 'capture' by where
   the cameras look."""
@@ -61,7 +51,7 @@ def kind_of(nb) -> str:
   nf = cams.nears_fars
   if meta.get("background_color") is not None and nf is not None and np.allclose(nf, nf[:1]):
     return "object"
-  return "forward" if capture.forward_facing(opencv_to_opengl(cams.poses)) else "capture"
+  return "forward" if capture.forward_facing(camera.opencv_to_opengl(cams.poses)) else "capture"
 
 
 def _images(nb):
@@ -101,7 +91,7 @@ def to_scene(nb, kind: str = "") -> Scene:
   images = _images(nb)
   n, h, w = images.shape[:3]
   focal = _focal(nb, h, w)
-  c2w = opencv_to_opengl(nb["cameras"].poses)
+  c2w = camera.opencv_to_opengl(nb["cameras"].poses)
   names = tuple(f"{i:03d}" for i in range(n))
   points = nb.get("points3D_xyz")
   white = bool(nb.get("metadata", {}).get("background_color") is not None
@@ -142,7 +132,7 @@ def camera_rays(scene: Scene, pose, intrinsics, size):
   [H, W, 3] (NDC for a forward scene), for OpenCV pose [3, 4], intrinsics
   (fx, fy, cx, cy) and size (width, height)."""
   width, height = (int(v) for v in size)
-  c2w = scene.frame.poses(opencv_to_opengl(pose))
+  c2w = scene.frame.poses(camera.opencv_to_opengl(pose))
   o, d = camera.pinhole_rays(c2w, height, width, intrinsics)
   if scene.dataset.geometry == Geometry.NDC:
     h, w, focal = scene.ndc_camera
