@@ -552,47 +552,91 @@ def headline(scenes, method="halo") -> str:
   seeds = sorted({len(scenes[s][m]) for s in both for m in (method, BASELINE)})
   behind = ", ".join(f"{s} ({d:+.2f})" for s, d in sorted(delta.items()) if d <= 0)
   return (f"{method} against {BASELINE} on the {len(both)} scenes both ran "
-          f"({seeds[0] if len(seeds) == 1 else f'{seeds[0]}-{seeds[-1]}'} seeds "
+          f"({seeds[0] if len(seeds) == 1 else f'{seeds[0]}-{seeds[-1]}'} "
+          f"seed{'' if seeds == [1] else 's'} "
           f"each): {np.mean(list(delta.values())):+.2f} dB on average, ahead on "
           f"{sum(d > 0 for d in delta.values())} of {len(both)}"
           + (f"; behind or level on {behind}." if behind else "."))
 
 
+def _front_point(records, at_s):
+  """The mean over seeds of the records' front PSNR at snapshot time `at_s`
+  (None: the final state), or None where no record has that point."""
+  v = [p["psnr"] for r in records for p in r.get("front", [])
+       if (p.get("final") if at_s is None else p.get("at_s") == at_s and not p.get("final"))]
+  return float(np.mean(v)) if v else None
+
+
+def fronts_rows(key, scenes, method="halo"):
+  """The README's rows for a suite with fronts: per scene, `method` / nerf_tuned
+  held-out PSNR (every view, mean over the seeds with a front) at each saved
+  time and at the end, then `method`'s seconds to nerf_tuned's end and the
+  ratio to nerf_tuned's own (reach_ratio). Returns (header lines, rows)."""
+  suite, mode = key
+  with_front = {s: {m: [r for r in scenes[s].get(m, []) if r.get("front")]
+                    for m in (method, BASELINE)} for s in sorted(scenes)}
+  with_front = {s: by for s, by in with_front.items() if all(by.values())}
+  times = sorted({p["at_s"] for by in with_front.values() for rs in by.values()
+                  for r in rs for p in r["front"] if not p.get("final")})
+  head = (["suite", "scene", "seeds"] + [f"{t:g} s" for t in times]
+          + ["end", f"{method}: s to nerf_tuned's end (× its time)"])
+  lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+  for scene, by in with_front.items():
+    cells = []
+    for t in times + [None]:
+      a, b = _front_point(by[method], t), _front_point(by[BASELINE], t)
+      cells.append(" / ".join("-" if x is None else f"{x:.2f}" for x in (a, b)))
+    reach = reach_ratio(by, method)
+    cells.append("not reached" if reach is None else f"{reach[0]:.0f} ({reach[1]:.2f})")
+    lines.append(f"| [{suite}/{mode}](docs/results/{suite}_{mode}.md) | {scene} | "
+                 f"{len(by[method])} / {len(by[BASELINE])} | " + " | ".join(cells) + " |")
+  return lines
+
+
 def readme_block(all_suites, docs=None):
-  """The README's results table (and, where runs have fronts and `docs` is
-  given, the fronts figure written there and HALO's time to nerf_tuned's end)."""
-  fronts = {key: {s for s, by in scenes.items()
-                  if any(r.get("front") for rs in by.values() for r in rs)}
-            for key, scenes in all_suites.items()}
-  with_reach = any(fronts.values())
-  lines = ["| suite | scene | " + " | ".join(METHOD_ORDER) + " |"
-           + (" halo: s to nerf_tuned's end (× its time) |" if with_reach else ""),
-           "|---|---|" + "---|" * (len(METHOD_ORDER) + with_reach)]
-  figures = []
+  """The README's results: for a suite whose runs have fronts, HALO's and
+  nerf_tuned's error against training time per scene (fronts_rows), the
+  fronts figure (written to `docs` when given) and the count of scenes where
+  HALO reaches nerf_tuned's end in at most half its time; for the others,
+  each method's final PSNR per scene."""
+  shown = {k: v for k, v in sorted(all_suites.items())
+           if k[0] not in ("smoke", "auto", "ingredients")}
+  has_front = {k: any(r.get("front") for by in scenes.values() for rs in by.values()
+                      for r in rs) for k, scenes in shown.items()}
+  out = []
   if ("cpu", "time") in all_suites:
-    figures += ["", "`cpu/time`: " + headline(all_suites[("cpu", "time")])]
-  for (suite, mode), scenes in sorted(all_suites.items()):
-    if suite in ("smoke", "auto", "ingredients"):
+    out += ["`cpu/time`, final PSNR: " + headline(all_suites[("cpu", "time")]), ""]
+  finals = ["| suite | scene | " + " | ".join(METHOD_ORDER) + " |",
+            "|---|---|" + "---|" * len(METHOD_ORDER)]
+  for (suite, mode), scenes in shown.items():
+    if has_front[(suite, mode)]:
       continue
     for scene in sorted(scenes):
       by = scenes[scene]
       cells = [stat([r["psnr"] for r in by[m]])[0] if m in by else "" for m in METHOD_ORDER]
-      if with_reach:
-        reach = reach_ratio(by)
-        cells.append("" if scene not in fronts[(suite, mode)] else
-                     "not reached" if reach is None else f"{reach[0]:.0f} ({reach[1]:.2f})")
-      lines.append(f"| [{suite}/{mode}](docs/results/{suite}_{mode}.md) | {scene} | "
-                   + " | ".join(cells) + " |")
-    if docs and fronts[(suite, mode)]:
+      finals.append(f"| [{suite}/{mode}](docs/results/{suite}_{mode}.md) | {scene} | "
+                    + " | ".join(cells) + " |")
+  for key, scenes in shown.items():
+    if not has_front[key]:
+      continue
+    suite, mode = key
+    out += [f"`{suite}/{mode}`, error against training time: held-out PSNR on every view, "
+            "halo / nerf_tuned (mean over seeds), at each saved training time and at the "
+            "end; every method's final figures are behind the link.", ""]
+    out += fronts_rows(key, scenes) + [""]
+    if docs:
       png = f"{suite}_{mode}_fronts.png"
       drawn = plot_fronts_overview(scenes, os.path.join(docs, png))
-      ratios = [reach_ratio(scenes[s]) for s in drawn]
-      half = sum(1 for r in ratios if r is not None and r[1] <= 0.5)
-      figures += ["", f"`{suite}/{mode}`, error against training time (every held-out view; "
-                  f"the dashed line is nerf_tuned's final PSNR): HALO reaches it in at most "
-                  f"half of nerf_tuned's time on {half} of the {len(drawn)} scenes with fronts.",
-                  "", f"![fronts](docs/results/{png})"]
-  return "\n".join(lines + figures)
+      both = [s for s in drawn
+              if all(any(r.get("front") for r in scenes[s].get(m, [])) for m in ("halo", BASELINE))]
+      half = sum(1 for s in both if (reach_ratio(scenes[s]) or (0, 1.0))[1] <= 0.5)
+      out += [f"HALO reaches nerf_tuned's final PSNR in at most half of nerf_tuned's time "
+              f"on {half} of the {len(both)} scenes where both have fronts (the dashed line; "
+              "a time is the first saved point at or above it, an upper bound).", "",
+              f"![fronts](docs/results/{png})", ""]
+  if len(finals) > 2:
+    out += finals
+  return "\n".join(out).rstrip("\n")
 
 
 def update_readme(path, block):

@@ -191,14 +191,23 @@ def test_front_table_gives_seconds_to_the_baselines_end(tmp_path):
   assert "freenerf" not in table
   name = report.write_suite("cpu", "time", report.load(root)[("cpu", "time")], docs)
   assert os.path.exists(os.path.join(docs, f"{name}_s1_front.png"))
-  # The README block: halo's seconds to nerf_tuned's end and the ratio, the
-  # fronts figure, and the count of scenes reached in half the time or less.
+  # The README block: halo / nerf_tuned at each saved time and at the end,
+  # halo's seconds to nerf_tuned's end and the ratio, the fronts figure, and
+  # the count of scenes reached in half the time or less; a suite without
+  # fronts keeps its final-PSNR rows.
   assert report.reach_ratio(by) == (30.0, 0.125)
   _write(root, "nerf_tuned", 0, _record(20.0, [[1, 20.0]]), scene="s2")  # no front
+  _write(root, "nerf_tuned", 0, _record(19.0, [[1, 19.0]]), scene="s3")
+  os.makedirs(os.path.join(root, "cpu", "steps"))
+  os.rename(os.path.join(root, "cpu", "time", "s3"), os.path.join(root, "cpu", "steps", "s3"))
   block = report.readme_block(report.load(root), docs)
-  assert "halo: s to nerf_tuned's end (× its time) |" in block
-  assert block.splitlines()[2].endswith(
-      "| s1 |  | 21.00 ± 1.41 | 15.00 | 23.00 ± 0.00 |  |  | 30 (0.12) |")
-  assert block.splitlines()[3].endswith("| s2 |  | 20.00 |  |  |  |  |  |")
-  assert "on 1 of the 1 scenes with fronts" in block
+  lines = block.splitlines()
+  head = next(i for i, l in enumerate(lines) if l.startswith("| suite | scene | seeds |"))
+  assert lines[head] == ("| suite | scene | seeds | 15 s | 30 s | 60 s | end | "
+                         "halo: s to nerf_tuned's end (× its time) |")
+  assert lines[head + 2].endswith("| s1 | 2 / 2 | 12.00 / 10.00 | 21.05 / 15.50 | "
+                                  "22.00 / 18.50 | 23.00 / 21.00 | 30 (0.12) |")
+  assert not any("| s2 |" in l for l in lines)  # no front: not a fronts row
+  assert "on 1 of the 1 scenes where both have fronts" in block
+  assert lines[-1].startswith("| [cpu/steps](docs/results/cpu_steps.md) | s3 |  | 19.00 |")
   assert os.path.exists(os.path.join(docs, "cpu_time_fronts.png"))
