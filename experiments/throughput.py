@@ -38,6 +38,9 @@ flags.DEFINE_string("results", os.path.join(REPO, "results", "throughput"),
                     "Result files' root: <results>/<config>/<machine>/<time>_<commit>.json.")
 flags.DEFINE_integer("repeats", 10, "Timed steps per round.")
 flags.DEFINE_integer("rounds", 3, "Rounds per measurement; the fastest is reported.")
+flags.DEFINE_list("measure", ["lo", "ray", "hi", "nerf", "render"],
+                  "Which steps to time (a subset for a quick sweep; the committed "
+                  "measurements time all).")
 flags.DEFINE_integer("peak_n", 2048, "Size n of the n x n x n fp32 matmul that measures the "
                      "peak (2048 fills 2 CPU cores; a GPU needs 8192).")
 
@@ -67,14 +70,15 @@ def _flops(fn, *args):
   return float(cost.get("flops", 0.0))
 
 
-def matmul_peak(n):
-  """GFLOP/s of an n x n x n fp32 matmul at JAX's default precision (the
-  precision the training steps use: TF32 on recent NVIDIA GPUs). Random
+def matmul_peak(n, dtype=jnp.float32):
+  """GFLOP/s of an n x n x n matmul at JAX's default precision (the
+  precision the training steps use: TF32 on recent NVIDIA GPUs), of fp32
+  operands, or of bfloat16 ones with fp32 sums (models.dense's form). Random
   operands: constant ones or zeros can run faster than real data."""
   ka, kb = jax.random.split(jax.random.PRNGKey(0))
-  a = jax.random.normal(ka, (n, n), jnp.float32)
-  b = jax.random.normal(kb, (n, n), jnp.float32)
-  mm = jax.jit(lambda a, b: a @ b)
+  a = jax.random.normal(ka, (n, n), jnp.float32).astype(dtype)
+  b = jax.random.normal(kb, (n, n), jnp.float32).astype(dtype)
+  mm = jax.jit(lambda a, b: jnp.dot(a, b, preferred_element_type=jnp.float32))
   return 2.0 * n ** 3 / _time(mm, a, b) / 1e9
 
 
@@ -107,6 +111,23 @@ def step_throughput(loss_fn, cfg, params, data, rays_per_step, samples_per_ray):
           "gflops_per_s": flops / dt / 1e9}
 
 
+def render_throughput(c, rf, rf_params, o, d):
+  """A held-out render chunk of the Hi field (forward only, guided by `rf`)."""
+  near, far = c.data.near, c.data.far
+  model = models.nerf_from_config(c, "hi")
+  ev = {b: raycast.make_eval_fn(model, c.hi.sampler, near=near, far=far, white_background=True,
+                                guide_model=rf, radius=4.03, block_rays=b)
+        for b in (0, c.eval.block_rays)}
+  hp = models.init_nerf(model, c.hi.model.kind, 0)
+  chunk = c.eval.chunk
+  oc, dc = jnp.asarray(o[:chunk]), jnp.asarray(d[:chunk])
+  dt = _time(ev[c.eval.block_rays], hp, rf_params, oc, dc)
+  fl = _flops(ev[0], hp, rf_params, oc, dc)  # blocks: the same arithmetic, counted once
+  return {"s_per_step": dt, "block_rays": c.eval.block_rays, "rays_per_s": chunk / dt,
+          "samples_per_s": chunk * c.hi.sampler.num_samples / dt,
+          "gflops": fl / 1e9, "gflops_per_s": fl / dt / 1e9}
+
+
 def main(argv):
   del argv
   logging.set_verbosity(logging.WARNING)
@@ -123,6 +144,8 @@ def main(argv):
   results = {"peak_gflops": peak, "device": str(jax.devices()[0]), "steps": {}}
 
   def nerf_step(label, config, name, guide=None):
+    if label not in FLAGS.measure:
+      return
     cfg = config[name]
     model = models.nerf_from_config(config, name)
     guide_model = guide_params = None
@@ -151,38 +174,30 @@ def main(argv):
   lf = functools.partial(ray.loss_fn, model=rf, guide_geometry=geometry.Geometry.SPHERE,
                          radius=4.03, far=far,
                          n_train=c.ray.batch_rays - n_rand, n_random=n_rand)
-  results["steps"]["ray"] = step_throughput(lf, c.ray, rf_params, jax.device_put(rdata),
-                                            c.ray.batch_rays, 1)
+  if "ray" in FLAGS.measure:
+    results["steps"]["ray"] = step_throughput(lf, c.ray, rf_params, jax.device_put(rdata),
+                                              c.ray.batch_rays, 1)
   nerf_step("hi", c, "hi", guide=(rf, rf_params["ray"]))
   # the baseline with the command line's overrides too (a dtype, a size)
   nerf_step("nerf", runs.load_config_as(
       config_flags.get_config_filename(FLAGS["config"]), "nerf_tuned",
       overrides), "hi")
-  # Held-out rendering with the Hi field (forward only).
-  model = models.nerf_from_config(c, "hi")
-  ev = {b: raycast.make_eval_fn(model, c.hi.sampler, near=near, far=far, white_background=True,
-                                guide_model=rf, radius=4.03, block_rays=b)
-        for b in (0, c.eval.block_rays)}
-  hp = models.init_nerf(model, c.hi.model.kind, 0)
-  rf_params = rf_params["ray"]
-  chunk = c.eval.chunk
-  oc, dc = jnp.asarray(o[:chunk]), jnp.asarray(d[:chunk])
-  dt = _time(ev[c.eval.block_rays], hp, rf_params, oc, dc)
-  fl = _flops(ev[0], hp, rf_params, oc, dc)  # blocks: the same arithmetic, counted once
-  results["steps"]["render"] = {"s_per_step": dt, "block_rays": c.eval.block_rays,
-                                "rays_per_s": chunk / dt,
-                                "samples_per_s": chunk * c.hi.sampler.num_samples / dt,
-                                "gflops": fl / 1e9, "gflops_per_s": fl / dt / 1e9}
+  if "render" in FLAGS.measure:  # held-out rendering with the Hi field
+    results["steps"]["render"] = render_throughput(c, rf, rf_params["ray"], o, d)
   peak = results["peak_gflops"] = max(peak, matmul_peak(FLAGS.peak_n))
+  # context for bfloat16 layers; every share stays against the fp32 peak
+  results["peak_bf16_gflops"] = matmul_peak(FLAGS.peak_n, jnp.bfloat16)
   for r in results["steps"].values():
     r["share_of_peak"] = r["gflops_per_s"] / peak
   results["config"] = config_flags.get_config_filename(FLAGS["config"])
   results["overrides"] = {k: str(v) for k, v in overrides.items()}
-  results["flags"] = {"repeats": FLAGS.repeats, "rounds": FLAGS.rounds, "peak_n": FLAGS.peak_n}
+  results["flags"] = {"repeats": FLAGS.repeats, "rounds": FLAGS.rounds, "peak_n": FLAGS.peak_n,
+                      "measure": list(FLAGS.measure)}
   results["provenance"] = provenance.collect(measure_peak=False)
   path = throughput_report.result_path(FLAGS.results, results)
   run_file.write_json(path, results)
-  print(f"matmul peak: {peak:.0f} GFLOP/s ({results['device']})")
+  print(f"matmul peak: {peak:.0f} GFLOP/s fp32, {results['peak_bf16_gflops']:.0f} bf16 "
+        f"({results['device']})")
   print(f"{'step':7} {'ms':>7} {'rays/s':>9} {'samples/s':>11} {'GFLOP':>7} {'GFLOP/s':>8} {'peak':>6}")
   for name, r in results["steps"].items():
     print(f"{name:7} {1e3 * r['s_per_step']:7.1f} {r['rays_per_s']:9.0f} {r['samples_per_s']:11.0f} "

@@ -168,7 +168,9 @@ def page(by_series: dict, repo: str = REPO) -> str:
     out += [f"## `{new['config']}` on {machine}", "",
             f"{prov['cpu']['model']}, {prov['cpu']['cores_used']} cores used, "
             f"{prov['device']['kind']}; jax {prov['versions']['jax']}; matmul peak "
-            f"{new['peak_gflops']:.0f} GFLOP/s (n={new['flags']['peak_n']}); "
+            f"{new['peak_gflops']:.0f} GFLOP/s (n={new['flags']['peak_n']})"
+            + (f", bfloat16 operands {new['peak_bf16_gflops']:.0f}" if "peak_bf16_gflops" in new
+               else "") + "; "
             f"{new['flags']['rounds']} rounds of {new['flags']['repeats']} steps{over}. "
             f"Newest: {prov['time_utc']}, commit {_commit(new)}.", "", latest_table(new), ""]
     if len(records) > 1:

@@ -1,6 +1,7 @@
 """Flax models: the NeRF MLPs and the ray fields (light-field networks), and
 the registry that builds a stage's radiance field from its config."""
 import dataclasses
+import functools
 from typing import Callable, Sequence
 
 import flax.linen as nn
@@ -62,6 +63,21 @@ def masked_positional_encoding(x, freqs, scale, band_fraction):
 
 COMPUTE_DTYPES = {"float32": jnp.float32, "bfloat16": jnp.bfloat16}
 
+# bfloat16 operands, float32 products and sums. XLA's CPU back end runs this
+# form of [N, K] @ [K, M] on its bfloat16 kernels (avx512_bf16); a dot whose
+# result is bfloat16 is turned back into a float32 dot plus conversions. The
+# gradient's products are float32 (the back end upcasts them either way).
+_F32_ACCUMULATE = functools.partial(jax.lax.dot_general, preferred_element_type=jnp.float32)
+
+
+def dense(features: int, dtype: str, name: str) -> nn.Dense:
+  """A Dense layer computing in `dtype` (COMPUTE_DTYPES) with float32
+  parameters; a bfloat16 one accumulates and returns float32."""
+  if dtype == "float32":
+    return nn.Dense(features, dtype=jnp.float32, name=name)
+  return nn.Dense(features, dtype=COMPUTE_DTYPES[dtype], dot_general=_F32_ACCUMULATE,
+                  name=name)
+
 
 class MLP(nn.Module):
   """ReLU MLP with the input concatenated back in after the `skips` layers.
@@ -77,7 +93,7 @@ class MLP(nn.Module):
     for i in range(self.depth):
       if i in self.skips and i > 0:
         x = jnp.concatenate([x, inputs], -1)
-      x = nn.relu(nn.Dense(self.width, dtype=COMPUTE_DTYPES[self.dtype], name=f"dense_{i}")(x))
+      x = nn.relu(dense(self.width, self.dtype, f"dense_{i}")(x))
     return x
 
 
@@ -128,17 +144,16 @@ class NeRFMLP(nn.Module):
     if self.base_freqs > 0:
       x = jnp.concatenate([encoding.over_points(lambda p: encoding.positional_encoding(
           p, self.base_freqs, self.base_scale), points), x], -1)
-    dtype = COMPUTE_DTYPES[self.compute_dtype]
     h = MLP(self.width, self.depth, tuple(self.skips), self.compute_dtype, name="trunk")(x)
     sigma = _density(h, density_noise_key, density_noise, self.density_bias, shape,
                      self.density_activation)
     if self.use_viewdirs:
-      feat = nn.Dense(self.width, dtype=dtype, name="bottleneck")(h)
+      feat = dense(self.width, self.compute_dtype, "bottleneck")(h)
       viewdirs = _rows(jnp.broadcast_to(viewdirs, (*shape, viewdirs.shape[-1])))
       d = encoding.over_points(
           lambda v: masked_positional_encoding(v, self.dir_freqs, 1.0, band_fraction), viewdirs)
-      h = nn.relu(nn.Dense(self.width // 2, dtype=dtype, name="view")(
-          jnp.concatenate([feat, d.astype(feat.dtype)], -1)))
+      h = nn.relu(dense(self.width // 2, self.compute_dtype, "view")(
+          jnp.concatenate([feat, d], -1)))
     rgb = nn.sigmoid(nn.Dense(3, dtype=jnp.float32, name="rgb")(h))
     return sigma.reshape(shape), rgb.reshape(*shape, 3)
 
@@ -251,15 +266,14 @@ class EPINeRF(nn.Module):
             points[..., 2:], encoding.fourier_matrix(
                 self.seed + encoding.FourierStream.EPI_THETA, 1, self.theta_features,
                 self.theta_std))], -1)
-    dtype = COMPUTE_DTYPES[self.compute_dtype]
     h = MLP(self.width, self.depth, tuple(self.skips), self.compute_dtype, name="trunk")(x)
     sigma = _density(h, density_noise_key, density_noise, self.density_bias, shape)
     v = encoding.gaussian_fourier_features(
         viewdirs, encoding.fourier_matrix(self.seed + encoding.FourierStream.EPI_UV, 2,
                                           self.uv_features, self.uv_std))
-    feat = nn.Dense(self.width, dtype=dtype, name="bottleneck")(h)
-    h = nn.relu(nn.Dense(self.width // 2, dtype=dtype, name="view")(
-        jnp.concatenate([feat, v.astype(feat.dtype)], -1)))
+    feat = dense(self.width, self.compute_dtype, "bottleneck")(h)
+    h = nn.relu(dense(self.width // 2, self.compute_dtype, "view")(
+        jnp.concatenate([feat, v], -1)))
     rgb = nn.sigmoid(nn.Dense(3, dtype=jnp.float32, name="rgb")(h))
     return sigma.reshape(shape), rgb.reshape(*shape, 3)
 

@@ -49,3 +49,19 @@ def test_an_unknown_compute_dtype_is_one_line_naming_the_field():
   c.hi.model.compute_dtype = "float16"
   with pytest.raises(validate.ConfigError, match=r"hi.model.compute_dtype='float16'"):
     validate.validate(c)
+
+
+def test_a_bfloat16_layer_rounds_its_operands_and_sums_in_float32():
+  layer = models.dense(64, "bfloat16", "d")
+  x = jax.random.normal(jax.random.PRNGKey(0), (256, 96))
+  params = layer.init(jax.random.PRNGKey(1), x)
+  y = layer.apply(params, x)
+  assert y.dtype == jnp.float32
+  # numpy reference: each operand rounded to bfloat16, products and sums in float64
+  rounded = lambda a: np.asarray(jnp.asarray(a, jnp.bfloat16).astype(jnp.float32), np.float64)
+  p = params["params"]
+  want = rounded(x) @ rounded(p["kernel"]) + rounded(p["bias"])
+  np.testing.assert_allclose(np.asarray(y), want, rtol=0, atol=1e-4)
+  # and it did round: the float32 layer's result is further from the reference
+  exact = np.asarray(x, np.float64) @ np.asarray(p["kernel"], np.float64) + np.asarray(p["bias"])
+  assert np.max(np.abs(exact - want)) > 10 * np.max(np.abs(np.asarray(y) - want))
