@@ -129,6 +129,12 @@ def front_of(record):
           for p in record.get("front", [])]
 
 
+def front_values(records, at_s):
+  """The records' front PSNRs at snapshot time `at_s` (None: the final state)."""
+  return [p["psnr"] for r in records for p in r.get("front", [])
+          if (p.get("final") if at_s is None else p.get("at_s") == at_s and not p.get("final"))]
+
+
 def mean_front(records):
   """(seconds [P], mean PSNR [P], PSNR [seeds, P], LPIPS [seeds, P]) over the
   records with a front: points matched by their snapshot time, the final
@@ -173,7 +179,7 @@ def front_table(by_method):
     rs = with_front[m]
     cells = []
     for t in times:
-      v = [p["psnr"] for r in rs for p in r["front"] if p.get("at_s") == t and not p.get("final")]
+      v = front_values(rs, t)
       cells.append(mean_pm(np.asarray(v)) if v else "-")
     cells.append(mean_pm(np.asarray([r["psnr"] for r in rs])))
     if level is not None:
@@ -559,23 +565,21 @@ def headline(scenes, method="halo") -> str:
           + (f"; behind or level on {behind}." if behind else "."))
 
 
-def _front_point(records, at_s):
-  """The mean over seeds of the records' front PSNR at snapshot time `at_s`
-  (None: the final state), or None where no record has that point."""
-  v = [p["psnr"] for r in records for p in r.get("front", [])
-       if (p.get("final") if at_s is None else p.get("at_s") == at_s and not p.get("final"))]
-  return float(np.mean(v)) if v else None
+def paired_fronts(scenes, method="halo"):
+  """{scene: {method: records, nerf_tuned: records}}, the records with a
+  front, for the scenes where both methods have one."""
+  pairs = {s: {m: [r for r in scenes[s].get(m, []) if r.get("front")]
+               for m in (method, BASELINE)} for s in sorted(scenes)}
+  return {s: by for s, by in pairs.items() if all(by.values())}
 
 
 def fronts_rows(key, scenes, method="halo"):
-  """The README's rows for a suite with fronts: per scene, `method` / nerf_tuned
-  held-out PSNR (every view, mean over the seeds with a front) at each saved
-  time and at the end, then `method`'s seconds to nerf_tuned's end and the
-  ratio to nerf_tuned's own (reach_ratio). Returns (header lines, rows)."""
+  """The README's table for a suite with fronts: per scene, `method` /
+  nerf_tuned held-out PSNR (every view, mean over the seeds with a front) at
+  each saved time and at the end, then `method`'s seconds to nerf_tuned's
+  end and the ratio to nerf_tuned's own (reach_ratio). Returns its lines."""
   suite, mode = key
-  with_front = {s: {m: [r for r in scenes[s].get(m, []) if r.get("front")]
-                    for m in (method, BASELINE)} for s in sorted(scenes)}
-  with_front = {s: by for s, by in with_front.items() if all(by.values())}
+  with_front = paired_fronts(scenes, method)
   times = sorted({p["at_s"] for by in with_front.values() for rs in by.values()
                   for r in rs for p in r["front"] if not p.get("final")})
   head = (["suite", "scene", "seeds"] + [f"{t:g} s" for t in times]
@@ -584,8 +588,8 @@ def fronts_rows(key, scenes, method="halo"):
   for scene, by in with_front.items():
     cells = []
     for t in times + [None]:
-      a, b = _front_point(by[method], t), _front_point(by[BASELINE], t)
-      cells.append(" / ".join("-" if x is None else f"{x:.2f}" for x in (a, b)))
+      means = [front_values(by[m], t) for m in (method, BASELINE)]
+      cells.append(" / ".join(f"{np.mean(v):.2f}" if v else "-" for v in means))
     reach = reach_ratio(by, method)
     cells.append("not reached" if reach is None else f"{reach[0]:.0f} ({reach[1]:.2f})")
     lines.append(f"| [{suite}/{mode}](docs/results/{suite}_{mode}.md) | {scene} | "
@@ -627,9 +631,8 @@ def readme_block(all_suites, docs=None):
     if docs:
       png = f"{suite}_{mode}_fronts.png"
       drawn = plot_fronts_overview(scenes, os.path.join(docs, png))
-      both = [s for s in drawn
-              if all(any(r.get("front") for r in scenes[s].get(m, [])) for m in ("halo", BASELINE))]
-      half = sum(1 for s in both if (reach_ratio(scenes[s]) or (0, 1.0))[1] <= 0.5)
+      both = [s for s in paired_fronts(scenes) if s in drawn]
+      half = sum(1 for s in both if (reach_ratio(scenes[s]) or (None, 1.0))[1] <= 0.5)
       out += [f"HALO reaches nerf_tuned's final PSNR in at most half of nerf_tuned's time "
               f"on {half} of the {len(both)} scenes where both have fronts (the dashed line; "
               "a time is the first saved point at or above it, an upper bound).", "",
