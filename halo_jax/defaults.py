@@ -295,6 +295,10 @@ def base_config() -> ml_collections.ConfigDict:
   # auto: choose lo.encoding.L / scale with the frequency criterion before
   # training (halo_jax/tuning.py; the search runs in <workdir>/tune once).
   c.lo.encoding.auto = False
+  # How the encodings' sin and cos are evaluated (halo_jax/trig.py):
+  # "polynomial", vectorised multiply-adds (a CPU evaluates XLA's one element
+  # at a time), or "xla". Both agree to about 2e-7.
+  c.sin_cos = "polynomial"
   c.parallel = _parallel()
   c.tune = _tune()
   c.ray = _ray_stage()

@@ -3,8 +3,8 @@
 Precision. In fp32 the angle 2^k x / s carries a rounding error of about
 |angle| * 2^-24 once it is formed, so a naive encoding loses all precision for
 large |x| * 2^L / s (0.4 absolute error in sin at |x| = 1e3, L = 16, s = 7).
-XLA's sin/cos reduce their argument exactly, so the only loss is in forming
-the angle. We form it as a1 + b, where a1 = x_hi * f_hi is an exact fp32
+The sines reduce their argument exactly (halo_jax/trig.py), so the only loss is
+in forming the angle. We form it as a1 + b, where a1 = x_hi * f_hi is an exact fp32
 product (x and f = 2^k / s split into 12-bit halves) and b is the small rest,
 then use sin(a1 + b) = sin a1 cos b + cos a1 sin b. The error is then about
 2^-24 * (3 + |angle| * 2^-11) instead of 2^-24 * |angle|; `experiments/
@@ -16,6 +16,8 @@ import enum
 import jax
 import jax.numpy as jnp
 import numpy as np
+
+from halo_jax import trig
 
 _HI_MASK = np.uint32(0xFFFFF000)  # keeps sign, exponent and the top 11 stored mantissa bits
 
@@ -34,6 +36,21 @@ def _split(x):
   return hi, x - hi
 
 
+def _by_frequency(x, freqs):
+  """x [..., D], freqs [L] (host) -> [..., L * D] = x_d f_k ordered (k, d).
+
+  One matmul with a matrix holding one frequency per column: exact, since
+  the other terms are zeros, and a matmul is where XLA stops fusing, so the
+  arithmetic that made x (a sampler's) is not redone for every feature of
+  the sin/cos pass and the concatenation after it (4x faster on a CPU).
+  """
+  dim = x.shape[-1]
+  matrix = np.zeros((dim, len(freqs) * dim), np.float64)
+  for k, f in enumerate(freqs):
+    matrix[np.arange(dim), k * dim + np.arange(dim)] = f
+  return jnp.matmul(x, jnp.asarray(matrix, x.dtype), precision=jax.lax.Precision.HIGHEST)
+
+
 def sin_cos_of_scaled(x, freqs: np.ndarray):
   """sin(x f) and cos(x f) for every frequency, with the compensated angle.
 
@@ -43,22 +60,23 @@ def sin_cos_of_scaled(x, freqs: np.ndarray):
     freqs: [L] frequencies (host float64).
 
   Returns:
-    sin, cos: [..., L * D] ordered (k, dim).
+    [..., 2, L * D]: the sines, then the cosines, each ordered (k, dim).
   """
-  shape = (*x.shape[:-1], -1)
-  powers_of_two = np.all(np.frexp(np.asarray(freqs, np.float64))[0] == 0.5)
+  freqs = np.asarray(freqs, np.float64)
+  powers_of_two = np.all(np.frexp(freqs)[0] == 0.5)
   if x.dtype != jnp.float32 or powers_of_two:
     # x * 2^k is exact in any binary float: no compensation needed.
-    angles = (x[..., None, :] * jnp.asarray(freqs, x.dtype)[:, None]).reshape(shape)
-    return jnp.sin(angles), jnp.cos(angles)
-  f_hi, f_lo = _split_host(np.asarray(freqs, np.float64))
-  f_hi, f_lo = jnp.asarray(f_hi)[:, None], jnp.asarray(f_lo)[:, None]
+    return trig.sin_cos_stacked(_by_frequency(x, freqs))
+  f_hi, f_lo = _split_host(freqs)
   x_hi, x_lo = _split(x)
-  x, x_hi, x_lo = x[..., None, :], x_hi[..., None, :], x_lo[..., None, :]
-  a1 = (x_hi * f_hi).reshape(shape)                       # exact: 12 x 12 bits
-  b = (x_lo * f_hi + x * f_lo).reshape(shape)             # |b| <= |angle| 2^-11
-  s1, c1, sb, cb = jnp.sin(a1), jnp.cos(a1), jnp.sin(b), jnp.cos(b)
-  return s1 * cb + c1 * sb, c1 * cb - s1 * sb
+  a1 = _by_frequency(x_hi, f_hi)                                  # exact: 12 x 12 bits
+  b = _by_frequency(x_lo, f_hi) + _by_frequency(x, f_lo)          # |b| <= |angle| 2^-11
+  sb, cb = trig.sin_cos(b)
+  # sin(a1 + b) = sin a1 cos b + cos a1 sin b, and the cosine a quarter turn on
+  q = np.array([[0], [1]], np.int32)
+  a1 = a1[..., None, :]
+  return (trig.sin_quadrant(a1, q) * cb[..., None, :]
+          + trig.sin_quadrant(a1, q + 1) * sb[..., None, :])
 
 
 def positional_encoding(x, num_freqs: int, scale: float = 1.0, include_input: bool = True):
@@ -77,7 +95,8 @@ def positional_encoding(x, num_freqs: int, scale: float = 1.0, include_input: bo
     [..., D * (2 L + include_input)] features.
   """
   freqs = 2.0 ** np.arange(num_freqs, dtype=np.float64) / float(scale)
-  feats = list(sin_cos_of_scaled(x, freqs))
+  both = sin_cos_of_scaled(x, freqs)
+  feats = [both.reshape(*both.shape[:-2], -1)]
   if include_input:
     feats = [x / scale] + feats
   return jnp.concatenate(feats, axis=-1)
@@ -143,5 +162,6 @@ def gaussian_fourier_features(x, matrix: np.ndarray, include_input: bool = True)
     [..., D * include_input + 2 F] features.
   """
   angles = 2.0 * np.pi * (x @ jnp.asarray(matrix, x.dtype))
-  feats = [jnp.sin(angles), jnp.cos(angles)]
+  both = trig.sin_cos_stacked(angles)
+  feats = [both.reshape(*both.shape[:-2], -1)]
   return jnp.concatenate(([x] if include_input else []) + feats, axis=-1)

@@ -69,4 +69,4 @@ def load(workdir: str, stage: Optional[str] = None, data_root: str = "") -> Rest
   dataset = datasets.load(config.data, workdir)
   states = stage_states(workdir, config, dataset, order.needed(config, name))
   return Restored(workdir, config, name, dataset, states,
-                  trainer.renderer(config, name, dataset, states))
+                  base.renderer_of(config, name, dataset, states))

@@ -39,8 +39,7 @@ def parse_grid(spec) -> List[Tuple[int, float]]:
 
 def lo_renderer(lo_config, dataset, lo_state):
   """The finished Lo stage as fn(o, d[, t]) -> {'rgb', 'depth', 'acc'}."""
-  trainer = base.trainer_of(lo_config, "lo")
-  return trainer.renderer(lo_config, "lo", dataset, {"lo": lo_state})
+  return base.renderer_of(lo_config, "lo", dataset, {"lo": lo_state})
 
 
 def criterion_of(render, dataset, config) -> dict:

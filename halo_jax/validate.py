@@ -6,7 +6,7 @@ declaration (its ray geometry, whether frames carry times), not the data.
 """
 import math
 
-from halo_jax import datasets, geometry, models, samplers, view_pairs
+from halo_jax import datasets, geometry, models, samplers, trig, view_pairs
 from halo_jax.registry import ConfigError, check
 from halo_jax.stages import base, order
 
@@ -122,6 +122,8 @@ def validate(config) -> None:
     trainer.check(config, name, dspec)
   _check_budget(config, order.needed(config, final))
   _check_front(config)
+  check(config.get("sin_cos") in trig.KINDS,
+        f"sin_cos={config.get('sin_cos')!r}: must be one of {list(trig.KINDS)}")
   _check_auto(config, dspec)
 
 

@@ -191,7 +191,7 @@ def _live_run(field: FieldView, name: str) -> LiveRun:
   states = restore.stage_states(field.workdir, config, ds,
                                 [n for n in order.needed(config, name) if n != name])
   states[name] = state.StageState(params, at, config, name)
-  return LiveRun(at, trainer.renderer(config, name, ds, states), config, states)
+  return LiveRun(at, base.renderer_of(config, name, ds, states), config, states)
 
 
 def read_records(workdir: str):

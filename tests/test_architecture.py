@@ -14,7 +14,7 @@ PACKAGE = pathlib.Path(__file__).resolve().parent.parent / "halo_jax"
 # Bottom to top: numerics, models and data, training, entry points. A module
 # may import modules of its own layer or below.
 LAYERS = (
-    {"registry", "geometry", "rays", "encoding", "camera", "rng", "samplers", "render", "raycast",
+    {"registry", "geometry", "rays", "trig", "encoding", "camera", "rng", "samplers", "render", "raycast",
      "losses", "metrics", "lightfield", "frequency", "plots", "provenance", "visibility",
      "tensorboard", "video", "config_files", "tables"},
     {"models", "ray_fields", "datasets", "checkpoint", "parallel", "evaluate", "defaults",

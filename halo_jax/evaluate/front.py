@@ -19,8 +19,7 @@ def with_params(run: restore.Restored, params, step: int) -> restore.Restored:
   """`run` with its stage's parameters replaced (by a snapshot's)."""
   states = dict(run.states)
   states[run.stage] = states[run.stage].replace(params=params, step=step)
-  render = base.trainer_of(run.config, run.stage).renderer(run.config, run.stage, run.dataset,
-                                                           states)
+  render = base.renderer_of(run.config, run.stage, run.dataset, states)
   return dataclasses.replace(run, states=states, render=render)
 
 

@@ -205,8 +205,7 @@ class HaloMethod:
       if not drawn:
         raise RuntimeError("nothing to render yet: no stage that makes images has a step")
       name = drawn[-1]
-      self._renderers[key] = base.trainer_of(self.config, name).renderer(
-          self.config, name, self.scene.dataset, states)
+      self._renderers[key] = base.renderer_of(self.config, name, self.scene.dataset, states)
     return self._renderers[key]
 
   def render(self, camera, *, options=None) -> Dict[str, np.ndarray]:

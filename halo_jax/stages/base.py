@@ -8,7 +8,7 @@ train. The pipeline (halo_jax/pipeline.py) only ever talks to this interface.
 import dataclasses
 from typing import Any, Callable, Dict, Optional
 
-from halo_jax import geometry, registry
+from halo_jax import geometry, registry, trig
 
 
 @dataclasses.dataclass(frozen=True)
@@ -62,3 +62,16 @@ TRAINERS = registry.Registry[Trainer]("stage trainer")
 
 def trainer_of(config, name: str) -> Trainer:
   return TRAINERS.get(config[name].get("kind", ""), f"{name}.kind")
+
+
+def renderer_of(config, name: str, dataset, states) -> Callable:
+  """The finished stage's renderer (Trainer.renderer), its sin and cos
+  evaluated as config.sin_cos says: a renderer is traced at its first call,
+  wherever that is."""
+  render = trainer_of(config, name).renderer(config, name, dataset, states)
+  kind = config.get("sin_cos", "polynomial")
+
+  def render_as_configured(*args, **kwargs):
+    with trig.using(kind):
+      return render(*args, **kwargs)
+  return render_as_configured
