@@ -23,6 +23,7 @@ import glob
 import json
 import os
 import re
+import sys
 import warnings
 
 from absl import app, flags
@@ -32,9 +33,12 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # pylint: disable=g-import-not-at-top
 import numpy as np  # pylint: disable=g-import-not-at-top
 
+REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+if __package__ in (None, ""):  # run as a script: the repository root holds `experiments`
+  sys.path.insert(0, REPO)
+from experiments import code_version  # pylint: disable=g-import-not-at-top
 from halo_jax import runs  # pylint: disable=g-import-not-at-top
 
-REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 FLAGS = flags.FLAGS
 
 
@@ -577,13 +581,14 @@ def fronts_rows(key, scenes, method="halo"):
   """The README's table for a suite with fronts: per scene, `method` /
   nerf_tuned held-out PSNR (every view, mean over the seeds with a front) at
   each saved time and at the end, then `method`'s seconds to nerf_tuned's
-  end and the ratio to nerf_tuned's own (reach_ratio). Returns its lines."""
+  end and the ratio to nerf_tuned's own (reach_ratio), and the code version
+  (code_version) of the records with a front. Returns its lines."""
   suite, mode = key
   with_front = paired_fronts(scenes, method)
   times = sorted({p["at_s"] for by in with_front.values() for rs in by.values()
                   for r in rs for p in r["front"] if not p.get("final")})
   head = (["suite", "scene", "seeds"] + [f"{t:g} s" for t in times]
-          + ["end", f"{method}: s to nerf_tuned's end (× its time)"])
+          + ["end", f"{method}: s to nerf_tuned's end (× its time)", "code"])
   lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
   for scene, by in with_front.items():
     cells = []
@@ -592,6 +597,8 @@ def fronts_rows(key, scenes, method="halo"):
       cells.append(" / ".join(f"{np.mean(v):.2f}" if v else "-" for v in means))
     reach = reach_ratio(by, method)
     cells.append("not reached" if reach is None else f"{reach[0]:.0f} ({reach[1]:.2f})")
+    cells.append(code_version.of_records(r for m in (method, BASELINE) for r in by[m]
+                                         if r.get("front")))
     lines.append(f"| [{suite}/{mode}](docs/results/{suite}_{mode}.md) | {scene} | "
                  f"{len(by[method])} / {len(by[BASELINE])} | " + " | ".join(cells) + " |")
   return lines

@@ -204,9 +204,10 @@ def test_front_table_gives_seconds_to_the_baselines_end(tmp_path):
   lines = block.splitlines()
   head = next(i for i, l in enumerate(lines) if l.startswith("| suite | scene | seeds |"))
   assert lines[head] == ("| suite | scene | seeds | 15 s | 30 s | 60 s | end | "
-                         "halo: s to nerf_tuned's end (× its time) |")
+                         "halo: s to nerf_tuned's end (× its time) | code |")
+  # the records' commit is not in this repository: the version names it
   assert lines[head + 2].endswith("| s1 | 2 / 2 | 12.00 / 10.00 | 21.05 / 15.50 | "
-                                  "22.00 / 18.50 | 23.00 / 21.00 | 30 (0.12) |")
+                                  "22.00 / 18.50 | 23.00 / 21.00 | 30 (0.12) | abcdef0 |")
   assert not any("| s2 |" in l for l in lines)  # no front: not a fronts row
   assert "on 1 of the 1 scenes where both have fronts" in block
   assert lines[-1].startswith("| [cpu/steps](docs/results/cpu_steps.md) | s3 |  | 19.00 |")

@@ -1,0 +1,41 @@
+"""Which version of the code made a result file.
+
+A record keeps the commit its run started from, but result files are
+committed while a suite runs, so runs of one code can name different
+commits. The version is the newest commit at or before the record's that
+touched the code that trains, scores and times (TRAINING_CODE).
+"""
+import functools
+import os
+import subprocess
+
+REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+TRAINING_CODE = ("halo_jax", "configs", "experiments/benchmark.py", "experiments/suites.py")
+
+
+@functools.lru_cache(maxsize=None)
+def of_commit(commit: str, repo: str = REPO) -> str:
+  """sha7 of the newest commit at or before `commit` that touched
+  TRAINING_CODE; `commit`'s own sha7 where git cannot say ('' stays '')."""
+  if not commit:
+    return ""
+  try:
+    out = subprocess.run(["git", "-C", repo, "log", "-1", "--format=%h", "--abbrev=7", commit,
+                          "--", *TRAINING_CODE], capture_output=True, text=True, timeout=20,
+                         check=True).stdout.strip()
+  except (OSError, subprocess.SubprocessError):
+    out = ""
+  return out or commit[:7]
+
+
+def of_records(records) -> str:
+  """The code versions of `records` (dicts with a 'provenance'), oldest
+  first as met, joined by ', '; '+' marks a version run from a modified tree."""
+  seen = []
+  for r in records:
+    git = r.get("provenance", {}).get("git", {})
+    v = of_commit(git.get("commit") or "") or "?"
+    v += "+" if git.get("dirty") else ""
+    if v not in seen:
+      seen.append(v)
+  return ", ".join(seen)

@@ -1,0 +1,34 @@
+"""experiments/code_version.py: the code version a result file names."""
+import subprocess
+
+from experiments import code_version
+
+
+def _git(*args):
+  return subprocess.run(["git", "-C", code_version.REPO, *args], capture_output=True, text=True,
+                        check=True).stdout.strip()
+
+
+def _record(commit, dirty=False):
+  return {"provenance": {"git": {"commit": commit, "dirty": dirty}}}
+
+
+def test_unknown_commits_name_themselves_and_versions_are_listed_once():
+  fake = "0123456789abcdef0123456789abcdef01234567"
+  recs = [_record(fake), _record(fake), _record(fake, dirty=True), _record(None)]
+  assert code_version.of_records(recs) == "0123456, 0123456+, ?"
+
+
+def test_a_commit_maps_to_the_newest_code_change_at_or_before_it():
+  try:
+    head = _git("rev-parse", "HEAD")
+  except (OSError, subprocess.CalledProcessError):
+    return  # not a git checkout: nothing to map
+  version = code_version.of_commit(head)
+  full = _git("rev-parse", version)
+  # an ancestor of (or equal to) HEAD, and one that touched the training code
+  assert subprocess.run(["git", "-C", code_version.REPO, "merge-base", "--is-ancestor", full,
+                         head]).returncode == 0
+  assert _git("diff", "--name-only", f"{full}~1", full, "--", *code_version.TRAINING_CODE)
+  # and nothing in the training code changed between it and HEAD
+  assert not _git("diff", "--name-only", full, head, "--", *code_version.TRAINING_CODE)
