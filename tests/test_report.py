@@ -6,7 +6,7 @@ import sys
 import numpy as np
 
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
-from experiments import report  # pylint: disable=g-import-not-at-top
+from experiments import fronts_report, report  # pylint: disable=g-import-not-at-top
 
 
 def _record(psnr, curve, steps=100):
@@ -183,7 +183,7 @@ def test_front_table_gives_seconds_to_the_baselines_end(tmp_path):
     _write(root, "halo", seed, rec)
   _write(root, "freenerf", 0, _record(15.0, [[1, 15.0]]))  # no front: no row
   by = report.load(root)[("cpu", "time")]["s1"]
-  table = report.front_table(by)
+  table = fronts_report.front_table(by)
   assert "| method | seeds | 15 s | 30 s | 60 s | end | s to 21.00 dB (nerf_tuned's end) |" in table
   # nerf_tuned's mean front reaches its own mean end at the end; halo's at 30 s
   assert "| nerf_tuned | 2 | 10.00 ± 0.00 | 15.50 ± 0.71 | 18.50 ± 0.71 | 21.00 ± 1.41 | 240 | 1.00 |" in table
@@ -195,7 +195,7 @@ def test_front_table_gives_seconds_to_the_baselines_end(tmp_path):
   # halo's seconds to nerf_tuned's end and the ratio, the fronts figure, and
   # the count of scenes reached in half the time or less; a suite without
   # fronts keeps its final-PSNR rows.
-  assert report.reach_ratio(by) == (30.0, 0.125)
+  assert fronts_report.reach_ratio(by) == (30.0, 0.125)
   _write(root, "nerf_tuned", 0, _record(20.0, [[1, 20.0]]), scene="s2")  # no front
   _write(root, "nerf_tuned", 0, _record(19.0, [[1, 19.0]]), scene="s3")
   os.makedirs(os.path.join(root, "cpu", "steps"))

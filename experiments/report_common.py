@@ -1,0 +1,26 @@
+"""What the benchmark's report pages share: the methods' order, the baseline
+every method is measured against, and mean ± std cells."""
+import numpy as np
+
+METHOD_ORDER = ("nerf_paper", "nerf_tuned", "freenerf", "halo", "halo+freenerf", "halo+unseen")
+BASELINE = "nerf_tuned"
+
+
+def in_method_order(by_method):
+  """The methods of {method: ...} in METHOD_ORDER, others after, by name."""
+  return sorted(by_method, key=lambda m: (METHOD_ORDER.index(m) if m in METHOD_ORDER else 99, m))
+
+
+def stat(values):
+  """'mean +- std' (std over seeds; no +- for one seed)."""
+  v = np.asarray([x for x in values if x is not None], np.float64)
+  if v.size == 0:
+    return "-", None
+  return mean_pm(v), float(v.mean())
+
+
+def mean_pm(v, digits=2):
+  """'mean ± std' of an array (std over seeds, ddof 1; the value alone for one)."""
+  if v.size == 1:
+    return f"{v[0]:.{digits}f}"
+  return f"{v.mean():.{digits}f} ± {v.std(ddof=1):.{digits}f}"
