@@ -11,21 +11,26 @@ import subprocess
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 TRAINING_CODE = ("halo_jax", "configs", "experiments/benchmark.py", "experiments/suites.py")
+# Commits that touched TRAINING_CODE without moving any number a suite
+# records (full sha: why), so that records on either side of one stay one
+# version and are not rerun for it.
+NEUTRAL = {}
 
 
 @functools.lru_cache(maxsize=None)
 def of_commit(commit: str, repo: str = REPO) -> str:
   """sha7 of the newest commit at or before `commit` that touched
-  TRAINING_CODE; `commit`'s own sha7 where git cannot say ('' stays '')."""
+  TRAINING_CODE and is not NEUTRAL; `commit`'s own sha7 where git cannot say
+  ('' stays '')."""
   if not commit:
     return ""
   try:
-    out = subprocess.run(["git", "-C", repo, "log", "-1", "--format=%h", "--abbrev=7", commit,
-                          "--", *TRAINING_CODE], capture_output=True, text=True, timeout=20,
-                         check=True).stdout.strip()
+    out = subprocess.run(["git", "-C", repo, "log", "--format=%H", commit, "--", *TRAINING_CODE],
+                         capture_output=True, text=True, timeout=20, check=True).stdout.split()
   except (OSError, subprocess.SubprocessError):
-    out = ""
-  return out or commit[:7]
+    out = []
+  version = next((c for c in out if c not in NEUTRAL), "")
+  return version[:7] or commit[:7]
 
 
 def of_records(records) -> str:

@@ -37,3 +37,22 @@ def test_a_commit_maps_to_the_newest_code_change_at_or_before_it():
   assert _git("diff", "--name-only", f"{full}~1", full, "--", *code_version.TRAINING_CODE)
   # and nothing in the training code changed between it and HEAD
   assert not _git("diff", "--name-only", full, head, "--", *code_version.TRAINING_CODE)
+
+
+def test_neutral_commits_do_not_start_a_version(monkeypatch):
+  try:
+    head = _git("rev-parse", "HEAD")
+    if _git("rev-parse", "--is-shallow-repository") == "true":
+      pytest.skip("a shallow clone may not hold the commits that changed the code")
+  except (OSError, subprocess.CalledProcessError):
+    pytest.skip("not a git checkout")
+  version = _git("rev-parse", code_version.of_commit(head))
+  code_version.of_commit.cache_clear()
+  monkeypatch.setattr(code_version, "NEUTRAL", {version: "test"})
+  before = code_version.of_commit(head)
+  code_version.of_commit.cache_clear()
+  assert before != version[:7]
+  # the version before the neutral commit: the newest code change before it
+  assert before == _git("log", "-1", "--format=%h", "--abbrev=7", f"{version}~1", "--",
+                        *code_version.TRAINING_CODE)
+
