@@ -10,7 +10,9 @@ Reduction. k = round(x 2/pi), r = x - k pi/2 in [-pi/4, pi/4] (Cody-Waite).
 pi/2 is split into three 12-bit parts and a float32 rest, and k into its top
 12 bits and the rest, so that every product k_part * c_part is exact and each
 subtraction cancels exactly; r then carries about one rounding whatever k is
-(checked against float64 up to |x| = 2^30 in tests/test_trig.py).
+(checked against float64 up to |x| = 2^30 in tests/test_trig.py). Larger
+angles, where float32's spacing is 64 or more, give NaN rather than a value
+that only looks like a sine (sin_cos="xla" gives the sine of the float).
 Polynomials: Cephes' minimax sinf/cosf on [-pi/4, pi/4] (about 1 ulp).
 """
 import contextlib
@@ -38,6 +40,7 @@ def _split_half_pi():
 
 _HALF_PI_PARTS = _split_half_pi()   # sums to pi/2 within float64 precision
 _TWO_OVER_PI = np.float32(2.0 / np.pi)
+_LARGEST = np.float32(2.0 ** 30)   # the largest |x| reduced (see above)
 _SIN_COEFFS = (-1.6666654611e-1, 8.3321608736e-3, -1.9515295891e-4)
 _COS_COEFFS = (4.166664568298827e-2, -1.388731625493765e-3, 2.443315711809948e-5)
 
@@ -78,7 +81,8 @@ def _sin_quadrant_f32(x, q):
   sin_r, cos_r = _polynomials(r)
   k = k + q
   s = jnp.where((k & 1) == 1, cos_r, sin_r)  # odd quadrants: sin(r + pi/2) = cos r
-  return jnp.where((k & 2) == 2, -s, s)      # quadrants 2, 3: the sign flips
+  s = jnp.where((k & 2) == 2, -s, s)         # quadrants 2, 3: the sign flips
+  return jnp.where(jnp.abs(x) <= _LARGEST, s, jnp.nan)
 
 
 # How sin and cos are evaluated (config field `sin_cos`): these polynomials,

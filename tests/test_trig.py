@@ -36,10 +36,12 @@ def test_quadrants_are_exact_quarter_turns():
 
 
 def test_special_values():
-  x = jnp.asarray([0.0, -0.0, np.inf, -np.inf, np.nan], jnp.float32)
+  # past 2^30 (float32 spacing 64 and more) NaN, never a value outside [-1, 1]
+  x = jnp.asarray([0.0, -0.0, 2.0 ** 30, np.inf, -np.inf, np.nan, 1e20, -3e38], jnp.float32)
   s, c = trig.sin_cos(x)
   assert s[0] == 0 and c[0] == 1 and c[1] == 1
-  assert np.all(np.isnan(np.asarray(s[2:]))) and np.all(np.isnan(np.asarray(c[2:])))
+  np.testing.assert_allclose([s[2], c[2]], [np.sin(2.0 ** 30), np.cos(2.0 ** 30)], atol=2e-5)
+  assert np.all(np.isnan(np.asarray(s[3:]))) and np.all(np.isnan(np.asarray(c[3:])))
 
 
 def test_derivatives_are_the_other_function():
