@@ -19,20 +19,15 @@ import numpy as np
 
 from halo_jax import trig
 
-_HI_MASK = np.uint32(0xFFFFF000)  # keeps sign, exponent and the top 11 stored mantissa bits
-
-
 def _split_host(values: np.ndarray):
   """float64 [...] -> (hi, lo) float32 with hi holding 12 significant bits."""
-  hi = (values.astype(np.float32).view(np.uint32) & _HI_MASK).view(np.float32)
-  lo = (values - hi.astype(np.float64)).astype(np.float32)
-  return hi, lo
+  hi = trig.top12_host(values)
+  return hi, (values - hi.astype(np.float64)).astype(np.float32)
 
 
 def _split(x):
   """fp32 x -> (x_hi, x_lo), x_hi with 12 significant bits, x_hi + x_lo == x exactly."""
-  hi = jax.lax.bitcast_convert_type(
-      jax.lax.bitcast_convert_type(x, jnp.uint32) & _HI_MASK, jnp.float32)
+  hi = trig.top12(x)
   return hi, x - hi
 
 

@@ -24,14 +24,15 @@ import numpy as np
 _TOP12 = np.uint32(0xFFFFF000)  # sign, exponent and the top 11 stored mantissa bits
 
 
-def _top12_host(v: float) -> float:
-  return float((np.array(v, np.float32).view(np.uint32) & _TOP12).view(np.float32))
+def top12_host(v):
+  """float32 values (host, any shape) keeping 12 significant bits."""
+  return (np.asarray(v, np.float32).view(np.uint32) & _TOP12).view(np.float32)
 
 
 def _split_half_pi():
   rest, parts = np.pi / 2, []
   for _ in range(3):
-    part = _top12_host(rest)
+    part = float(top12_host(rest))
     parts.append(part)
     rest -= part
   parts.append(float(np.float32(rest)))
@@ -45,7 +46,8 @@ _SIN_COEFFS = (-1.6666654611e-1, 8.3321608736e-3, -1.9515295891e-4)
 _COS_COEFFS = (4.166664568298827e-2, -1.388731625493765e-3, 2.443315711809948e-5)
 
 
-def _top12(x):
+def top12(x):
+  """float32 x keeping 12 significant bits: products of two such are exact."""
   return jax.lax.bitcast_convert_type(
       jax.lax.bitcast_convert_type(x, jnp.uint32) & _TOP12, jnp.float32)
 
@@ -53,7 +55,7 @@ def _top12(x):
 def _reduce(x):
   """x [...] float32 -> (r, k) with x = k pi/2 + r, |r| <~ pi/4, k int32."""
   k = jnp.round(x * _TWO_OVER_PI)
-  k_hi = _top12(k)
+  k_hi = top12(k)
   k_lo = k - k_hi                        # an integer of at most 12 bits
   r = x
   for part in _HALF_PI_PARTS[:3]:
