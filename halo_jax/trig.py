@@ -78,6 +78,7 @@ def _polynomials(r):
   return sin_r, cos_r
 
 
+@jax.jit  # one dispatch when called outside jit (tests, eager code); inlined inside
 def _sin_quadrant_f32(x, q):
   r, k = _reduce(x)
   sin_r, cos_r = _polynomials(r)
