@@ -14,7 +14,6 @@ is skipped, so the command resumes where a killed one stopped; a file
 --work/stop ends it after the scene in progress. Other methods pair the same
 way (--methods, one per core); a scene runs those of them its suite plans.
 """
-import glob
 import json
 import os
 import shutil
@@ -71,39 +70,44 @@ def up_to_date(root, scene, methods, seeds, version) -> bool:
   return True
 
 
-def run_scene(scene, methods, version):
-  """Trains the scene's `methods` (each on its --methods core) into a fresh
-  copy of results/ and commits their records."""
-  work = os.path.join(FLAGS.work, "results")
-  shutil.rmtree(work, ignore_errors=True)
-  shutil.copytree(os.path.join(REPO, "results"), work)
-  for m in methods:  # the records to replace: run again, not skipped as done
-    for seed in FLAGS.seeds:
-      path = os.path.join(work, SUITE_DIR, scene, m, f"seed{seed}.json")
-      if os.path.exists(path):
-        os.remove(path)
-  seeds = "|".join(FLAGS.seeds)
-  procs = []
-  for m in methods:
-    core = FLAGS.methods.index(m)
-    log_path = os.path.join(FLAGS.work, f"{scene}.{m}.log")
-    log = open(log_path, "w")  # pylint: disable=consider-using-with
-    procs.append(subprocess.Popen(  # pylint: disable=consider-using-with
-        [sys.executable, os.path.join(REPO, "experiments", "benchmark.py"), "--suite=cpu",
-         "--add_fronts", f"--results={work}", f"--scratch={os.path.join(FLAGS.work, 'scratch')}",
-         f"--first_core={core}", f"--only=^{scene}/{m}/seed({seeds})$"],
-        cwd=REPO, stdout=log, stderr=subprocess.STDOUT))
+def _launch(work, scene, method, core, seeds):
+  """One benchmark.py process training `method`'s `seeds` of `scene` on `core`."""
+  log = open(os.path.join(work, f"{scene}.{method}.log"), "w")  # pylint: disable=consider-using-with
+  return subprocess.Popen(  # pylint: disable=consider-using-with
+      [sys.executable, os.path.join(REPO, "experiments", "benchmark.py"), "--suite=cpu",
+       "--add_fronts", f"--results={os.path.join(work, 'results')}",
+       f"--scratch={os.path.join(work, 'scratch')}", f"--first_core={core}",
+       f"--only=^{scene}/{method}/seed({'|'.join(seeds)})$"],
+      cwd=REPO, stdout=log, stderr=subprocess.STDOUT)
+
+
+def run_scene(scene, methods, version, *, work, seeds, cores, repo=REPO, launch=_launch):
+  """Trains the scene's `methods` (method m on core cores[m]) into a fresh
+  copy of repo's results/ under `work`, then copies their records into repo
+  and commits them. The scene's workdirs are cleared first: a run killed with
+  its scene is trained again, not resumed on another version of the code."""
+  shutil.rmtree(os.path.join(work, "results"), ignore_errors=True)
+  shutil.copytree(os.path.join(repo, "results"), os.path.join(work, "results"))
+  runs = [(m, seed) for m in methods for seed in seeds]
+  for m, seed in runs:  # the records to replace: run again, not skipped as done
+    path = os.path.join(work, SUITE_DIR, scene, m, f"seed{seed}.json")
+    if os.path.exists(path):
+      os.remove(path)
+    shutil.rmtree(os.path.join(work, "scratch", "cpu", "time", scene, m, f"seed{seed}"),
+                  ignore_errors=True)
+  procs = [launch(work, scene, m, cores[m], seeds) for m in methods]
   codes = [p.wait() for p in procs]
-  if any(codes) or not up_to_date(work, scene, methods, FLAGS.seeds, version):
-    sys.exit(f"{scene}: a run failed or has no front (exit codes {codes}; logs in {FLAGS.work})")
-  for path in glob.glob(os.path.join(work, SUITE_DIR, scene, "*", "seed*.json")):
-    method = path.split(os.sep)[-2]
-    if method in methods and os.path.basename(path)[4:-5] in FLAGS.seeds:
-      shutil.copy(path, os.path.join(REPO, os.path.relpath(path, FLAGS.work)))
-  subprocess.run(["git", "-C", REPO, "add", os.path.join(SUITE_DIR, scene)], check=True)
-  subprocess.run(["git", "-C", REPO, "commit", "-q", "-m",
+  if any(codes) or not up_to_date(work, scene, methods, seeds, version):
+    sys.exit(f"{scene}: a run failed or has no front (exit codes {codes}; logs in {work})")
+  for m, seed in runs:
+    rel = os.path.join(SUITE_DIR, scene, m, f"seed{seed}.json")
+    os.makedirs(os.path.dirname(os.path.join(repo, rel)), exist_ok=True)
+    shutil.copy(os.path.join(work, rel), os.path.join(repo, rel))
+  subprocess.run(["git", "-C", repo, "add", os.path.join(SUITE_DIR, scene)], check=True)
+  subprocess.run(["git", "-C", repo, "commit", "-q", "-m",
                   f"cpu/time: {' and '.join(methods)} fronts on {scene}, seeds "
-                  f"{', '.join(FLAGS.seeds)}, code {version}"], check=True)
+                  f"{', '.join(seeds)}, code {version}", "--", os.path.join(SUITE_DIR, scene)],
+                 check=True)
   print(f"committed {scene}", flush=True)
 
 
@@ -128,7 +132,8 @@ def main(argv):
       continue
     print(f"{'would run' if FLAGS.dry_run else 'running'}   {scene} (code {version})", flush=True)
     if not FLAGS.dry_run:
-      run_scene(scene, methods, version)
+      run_scene(scene, methods, version, work=FLAGS.work, seeds=FLAGS.seeds,
+                cores={m: FLAGS.methods.index(m) for m in methods})
 
 
 if __name__ == "__main__":
