@@ -16,6 +16,7 @@ way (--methods, one per core); a scene runs those of them its suite plans.
 """
 import json
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -70,6 +71,11 @@ def up_to_date(root, scene, methods, seeds, version) -> bool:
   return True
 
 
+def only_regex(scene, method, seeds) -> str:
+  """benchmark.py's --only for these runs ('+' in a method's name is literal)."""
+  return f"^{re.escape(scene)}/{re.escape(method)}/seed({'|'.join(seeds)})$"
+
+
 def _launch(work, scene, method, core, seeds):
   """One benchmark.py process training `method`'s `seeds` of `scene` on `core`."""
   log = open(os.path.join(work, f"{scene}.{method}.log"), "w")  # pylint: disable=consider-using-with
@@ -77,7 +83,7 @@ def _launch(work, scene, method, core, seeds):
       [sys.executable, os.path.join(REPO, "experiments", "benchmark.py"), "--suite=cpu",
        "--add_fronts", f"--results={os.path.join(work, 'results')}",
        f"--scratch={os.path.join(work, 'scratch')}", f"--first_core={core}",
-       f"--only=^{scene}/{method}/seed({'|'.join(seeds)})$"],
+       f"--only={only_regex(scene, method, seeds)}"],
       cwd=REPO, stdout=log, stderr=subprocess.STDOUT)
 
 

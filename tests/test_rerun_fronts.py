@@ -78,3 +78,11 @@ def test_run_scene_replaces_the_pair_records_in_the_repository_and_commits_only_
                            capture_output=True, text=True).stdout.split()
   assert sorted(changed) == [f"{rerun_fronts.SUITE_DIR}/a/{m}/seed0.json"
                              for m in ("halo", "nerf_tuned")]
+
+
+def test_only_regex_selects_exactly_the_scene_method_and_seeds_of_the_suite():
+  from experiments import benchmark, suites  # pylint: disable=import-outside-toplevel
+  for method in ("halo+unseen", "halo+freenerf", "nerf_tuned"):
+    picked = [(s.name, m, seed) for s, m, seed in
+              benchmark.plan(suites.CPU, rerun_fronts.only_regex("lego_8view", method, ["0", "1"]))]
+    assert picked == [("lego_8view", method, 0), ("lego_8view", method, 1)]
