@@ -53,13 +53,21 @@ def data_root() -> str:
 
 
 def plan(suite: suites.Suite, only: str = ""):
-  """[(scene, method, seed), ...] seed-major, filtered by the regex `only`."""
+  """[(scene, method, seed), ...] seed-major, filtered by the regex `only`
+  (ValueError when it is not one, or selects nothing)."""
+  try:
+    re.compile(only)
+  except re.error as e:
+    raise ValueError(f"--only={only!r} is not a regular expression: {e}") from None
   out = []
   for seed in range(max(s.seeds for s in suite.scenes)):
     for scene in suite.scenes:
       if seed < scene.seeds:
         out += [(scene, m, seed) for m in scene.methods
                 if re.search(only, f"{scene.name}/{m}/seed{seed}")]
+  if not out:
+    raise ValueError(f"--only={only!r} matches no run of the suite (runs are named "
+                     "scene/method/seed<k>; a '+' in a method's name is escaped as \\+)")
   return out
 
 
@@ -194,7 +202,10 @@ def main(argv):
     first = FLAGS.first_core if FLAGS.first_core >= 0 else len(allowed) - suite.cores
     cores = allowed[first:first + suite.cores]
     os.sched_setaffinity(0, cores)
-  todo = plan(suite, FLAGS.only)
+  try:
+    todo = plan(suite, FLAGS.only)
+  except ValueError as e:
+    sys.exit(str(e))
   if FLAGS.score_validation:
     for scene, method, seed in todo:
       what = add_validation(FLAGS.suite, scene, method, seed, FLAGS.mode, FLAGS.results,

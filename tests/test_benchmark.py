@@ -22,6 +22,14 @@ def test_cpu_plan_is_seed_major_and_complete():
   assert [(s.name, m, k) for s, m, k in only] == [("lego_8view", "halo", k) for k in range(3)]
 
 
+def test_an_only_that_selects_nothing_or_is_no_regex_is_refused_in_one_line():
+  with pytest.raises(ValueError, match="matches no run"):
+    benchmark.plan(suites.CPU, only="^lego_8view/halo+unseen/")   # '+' unescaped
+  with pytest.raises(ValueError, match="not a regular expression"):
+    benchmark.plan(suites.CPU, only="lego_8view/(halo")
+  assert benchmark.plan(suites.CPU, only=r"^lego_8view/halo\+unseen/seed0$")
+
+
 @pytest.mark.parametrize("method", ["nerf_tuned", "halo"])
 def test_modes_split_budget_and_steps_by_share(method, tmp_path):
   scene = suites.SMOKE.scenes[0]
