@@ -8,9 +8,9 @@ side by side (one benchmark.py process each, --add_fronts), both seeds of the
 scene in turn. Their records are written outside the repository (--work),
 so no run sees a modified tree, and the scene's records are copied into
 results/ and committed together once all of them have finished, so no
-scene's front mixes two versions of the code. A scene whose records of both
-methods already carry the current code version (experiments/code_version.py)
-is skipped, so the command resumes where a killed one stopped; a file
+scene's front mixes two versions of the code. A method whose records of the
+scene already carry the current code version (experiments/code_version.py)
+is skipped there, so the command resumes where a killed one stopped; a file
 --work/stop ends it after the scene in progress. Other methods pair the same
 way (--methods, one per core); a scene runs those of them its suite plans.
 """
@@ -130,13 +130,13 @@ def main(argv):
     if needs and not os.path.isdir(os.path.join(defaults.data_root(), needs)):
       print(f"no data     {scene} ({needs} not under {defaults.data_root()})", flush=True)
       continue
-    methods = [m for m in FLAGS.methods if m in by_name[scene].methods]  # the suite's plan
+    planned = [m for m in FLAGS.methods if m in by_name[scene].methods]  # the suite's plan
+    methods = [m for m in planned if not up_to_date(REPO, scene, [m], FLAGS.seeds, version)]
     if not methods:
-      continue
-    if up_to_date(REPO, scene, methods, FLAGS.seeds, version):
       print(f"up to date  {scene} (code {version})", flush=True)
       continue
-    print(f"{'would run' if FLAGS.dry_run else 'running'}   {scene} (code {version})", flush=True)
+    print(f"{'would run' if FLAGS.dry_run else 'running'}   {scene}: {', '.join(methods)} "
+          f"(code {version})", flush=True)
     if not FLAGS.dry_run:
       run_scene(scene, methods, version, work=FLAGS.work, seeds=FLAGS.seeds,
                 cores={m: FLAGS.methods.index(m) for m in methods})
