@@ -56,7 +56,7 @@ def plan(suite: suites.Suite, only: str = ""):
   """[(scene, method, seed), ...] seed-major, filtered by the regex `only`
   (ValueError when it is not one, or selects nothing)."""
   try:
-    re.compile(only)
+    pattern = re.compile(only)
   except re.error as e:
     raise ValueError(f"--only={only!r} is not a regular expression: {e}") from None
   out = []
@@ -64,7 +64,7 @@ def plan(suite: suites.Suite, only: str = ""):
     for scene in suite.scenes:
       if seed < scene.seeds:
         out += [(scene, m, seed) for m in scene.methods
-                if re.search(only, f"{scene.name}/{m}/seed{seed}")]
+                if pattern.search(f"{scene.name}/{m}/seed{seed}")]
   if not out:
     raise ValueError(f"--only={only!r} matches no run of the suite (runs are named "
                      "scene/method/seed<k>; a '+' in a method's name is escaped as \\+)")

@@ -41,7 +41,8 @@ def define_flags():
   flags.DEFINE_string("work", "/tmp/rerun_fronts", "results copy, workdirs and logs")
   flags.DEFINE_bool("dry_run", False, "say which scenes would run")
 
-SUITE_DIR = os.path.join("results", "cpu", "time")
+SUITE_MODE = os.path.join("cpu", "time")   # benchmark.py's <suite>/<mode> under results and scratch
+SUITE_DIR = os.path.join("results", SUITE_MODE)
 
 
 def _records(root, scene, method, seeds):
@@ -99,7 +100,7 @@ def run_scene(scene, methods, version, *, work, seeds, cores, repo=REPO, launch=
     path = os.path.join(work, SUITE_DIR, scene, m, f"seed{seed}.json")
     if os.path.exists(path):
       os.remove(path)
-    shutil.rmtree(os.path.join(work, "scratch", "cpu", "time", scene, m, f"seed{seed}"),
+    shutil.rmtree(os.path.join(work, "scratch", SUITE_MODE, scene, m, f"seed{seed}"),
                   ignore_errors=True)
   procs = [launch(work, scene, m, cores[m], seeds) for m in methods]
   codes = [p.wait() for p in procs]
