@@ -185,12 +185,17 @@ STUDIES = {
 
 
 def _plan(study: Study, only: str):
-  out = []
-  for seed in range(study.seeds):
-    for scene in study.scenes:
-      for v in study.variants:
-        if re.search(only, f"{scene.name}/{v.name}/seed{seed}"):
-          out.append((scene, v, seed))
+  """[(scene, variant, seed), ...] filtered by the regex `only` (ValueError
+  when it is not one, or selects nothing)."""
+  try:
+    pattern = re.compile(only)
+  except re.error as e:
+    raise ValueError(f"--only={only!r} is not a regular expression: {e}") from None
+  out = [(scene, v, seed) for seed in range(study.seeds) for scene in study.scenes
+         for v in study.variants if pattern.search(f"{scene.name}/{v.name}/seed{seed}")]
+  if not out:
+    raise ValueError(f"--only={only!r} matches no run of the study (runs are named "
+                     "scene/variant/seed<k>)")
   return out
 
 
@@ -370,8 +375,12 @@ def main(argv):
     if hasattr(os, "sched_setaffinity"):
       allowed = sorted(os.sched_getaffinity(0))
       os.sched_setaffinity(0, [allowed[FLAGS.core]])
+    try:
+      todo = _plan(study, FLAGS.only)
+    except ValueError as e:
+      sys.exit(str(e))
     failed = []
-    for scene, variant, seed in _plan(study, FLAGS.only):
+    for scene, variant, seed in todo:
       path = result_path(FLAGS.results, FLAGS.study, scene, variant, seed)
       tag = f"{scene.name}/{variant.name}/seed{seed}"
       state = benchmark._state(path, scene, _terms(study))  # pylint: disable=protected-access

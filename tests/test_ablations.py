@@ -5,6 +5,8 @@ import os
 import subprocess
 import sys
 
+import pytest
+
 REPO = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..")
 sys.path.insert(0, REPO)
 from experiments import ablations  # pylint: disable=g-import-not-at-top
@@ -61,3 +63,11 @@ def test_the_command_lists_its_plan_without_running(tmp_path):
   assert res.stdout.split() == ["to", "run", "lattice/halo/seed0", "to", "run",
                                 "lattice/hi_samples_16/seed0", "to", "run",
                                 "lattice/hi_samples_8/seed0"]
+
+
+def test_plan_refuses_an_empty_or_bad_selection():
+  study = ablations.STUDIES["fog"]
+  assert ablations._plan(study, "")  # pylint: disable=protected-access
+  for only in ("no_such_scene", "halo+("):
+    with pytest.raises(ValueError, match="--only="):
+      ablations._plan(study, only)  # pylint: disable=protected-access
