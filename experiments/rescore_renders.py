@@ -23,8 +23,12 @@ if __package__ in (None, ""):
 from halo_jax import checkpoint, datasets, evaluate  # pylint: disable=g-import-not-at-top
 
 FLAGS = flags.FLAGS
-flags.DEFINE_string("workdir", None, "A compare workdir (holds results.json).", required=True)
-flags.DEFINE_string("data_root", "", "Replaces each run's data.root (data moved since).")
+
+
+def define_flags():
+  """Defined on launch, not on import (the tests import this beside other scripts)."""
+  flags.DEFINE_string("workdir", None, "A compare workdir (holds results.json).", required=True)
+  flags.DEFINE_string("data_root", "", "Replaces each run's data.root (data moved since).")
 
 
 def rescore_method(method_dir: str, data_root: str) -> dict:
@@ -70,4 +74,5 @@ def main(_):
 
 
 if __name__ == "__main__":
+  define_flags()
   app.run(main)
