@@ -75,7 +75,7 @@ def test_plan_refuses_an_empty_or_bad_selection():
 
 def test_a_time_study_keeps_the_suites_budget_and_reports_fronts_on_validation_views(tmp_path):
   root = str(tmp_path / "results")
-  study = ablations.STUDIES["stage_shares"]
+  study = ablations.STUDIES["static_front"]
   scene = next(s for s in study.scenes if s.name == "spheres")
   variant = next(v for v in study.variants if v.name == "shares_20_05_75")
   c = ablations.configure(study, scene, variant, 0, str(tmp_path / "scratch"), root)
@@ -88,12 +88,12 @@ def test_a_time_study_keeps_the_suites_budget_and_reports_fronts_on_validation_v
                                ("shares_20_05_75", 0, (15.5, 18.0, 19.0))):
     points = [{"at_s": t, "wall_s": t, "psnr": p} for t, p in zip((60.0, 120.0), front)]
     points.append({"at_s": 240.0, "wall_s": 240.0, "psnr": front[-1], "final": True})
-    _write(os.path.join(root, "ablations", "stage_shares", "spheres", variant,
+    _write(os.path.join(root, "ablations", "static_front", "spheres", variant,
                         f"seed{seed}.json"),
            {"scene": "spheres", "variant": variant, "seed": seed, "psnr": front[-1],
             "wall_s": 240.0, "stages": {"hi": {"step": 9, "psnr": front[-1]}}, "front": points,
             "provenance": {"git": {"commit": "abc1234"}}})
-  text = ablations.report("stage_shares", study, root)
+  text = ablations.report("static_front", study, root)
   assert "240 s of training on one core" in text
   # nerf_tuned ends at 18.0: halo reaches it at its end, the new shares at 120 s
   assert "| halo | 1 | 15.00 | 17.00 | 18.50 | 240 | 1.00 |" in text
