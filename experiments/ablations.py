@@ -337,6 +337,37 @@ def _overall(study: Study, recs) -> list:
           "| variant | pairs | mean Δ | worst Δ | pairs lost |", "|---|---|---|---|---|"] + rows
 
 
+def _overall_fronts(study: Study, recs) -> list:
+  """Lines of a table for a time study: per variant, its mean difference
+  from the reference at each front time and at the end, over every (scene,
+  seed) both ran."""
+  times = sorted({p["at_s"] for rs in recs.values() for r in rs for p in r.get("front", [])
+                  if not p.get("final")})
+  rows = []
+  for v in study.variants:
+    if v.name == study.reference:
+      continue
+    deltas = {t: [] for t in times + [None]}
+    for scene in study.scenes:
+      ref = {r["seed"]: r for r in recs.get((scene.name, study.reference), [])}
+      for r in recs.get((scene.name, v.name), []):
+        if r["seed"] not in ref:
+          continue
+        for t in deltas:
+          ours = fronts_report.front_values([r], t)
+          theirs = fronts_report.front_values([ref[r["seed"]]], t)
+          if ours and theirs:
+            deltas[t].append(ours[0] - theirs[0])
+    if deltas[None]:
+      rows.append(f"| `{v.name}` | {len(deltas[None])} | " + " | ".join(
+          f"{statistics.mean(d):+.2f}" if d else "-" for d in deltas.values()) + " |")
+  if not rows:
+    return []
+  head = ["variant", "pairs"] + [f"{t:g} s" for t in times] + ["end"]
+  return ["", f"Mean difference from `{study.reference}` at each saved time, validation views:",
+          "", "| " + " | ".join(head) + " |", "|" + "---|" * len(head)] + rows
+
+
 def _terms_text(study: Study) -> str:
   if study.budget == "time":
     return (f"CPU suite terms: {suites.CPU.budget_s:g} s of training on one core, each "
@@ -395,6 +426,8 @@ def report(study_name: str, study: Study, results: str) -> str:
                                      for r in sorted(rs, key=lambda r: r["seed"]))
           for v, rs in rows if rs) + "."]
   lines += _overall(study, recs)
+  if study.budget == "time":
+    lines += _overall_fronts(study, recs)
   commits = sorted({(r["provenance"].get("git") or {}).get("commit", "?")[:7]
                     for rs in recs.values() for r in rs})
   if commits:

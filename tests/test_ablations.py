@@ -98,3 +98,5 @@ def test_a_time_study_keeps_the_suites_budget_and_reports_fronts_on_validation_v
   # nerf_tuned ends at 18.0: halo reaches it at its end, the new shares at 120 s
   assert "| halo | 1 | 15.00 | 17.00 | 18.50 | 240 | 1.00 |" in text
   assert "| shares_20_05_75 | 1 | 15.50 | 18.00 | 19.00 | 120 | 0.50 |" in text
+  # over scenes and seeds: the variant against halo at each saved time
+  assert "| `shares_20_05_75` | 1 | +0.50 | +1.00 | +0.50 |" in text
