@@ -385,8 +385,8 @@ def report(study_name: str, study: Study, results: str) -> str:
            f"`results/ablations/{study_name}/`; do not edit.", "",
            study.question, "",
            _terms_text(study) + ", scored on validation views, never on the test views the "
-           "suite reports: D-NeRF's and Blender's `val` frames, the built-in scenes' `val` "
-           "cameras. PSNR of the method's "
+           "suite reports: D-NeRF's `val` frames, the built-in scenes' `val` cameras. "
+           "PSNR of the method's "
            "output, mean ± std over seeds; `Lo` is Lo-NeRF's PSNR at the end of its stage on "
            "the same views; `train s` the training seconds (mean; runs shared the machine); `Δ` the difference "
            f"from `{study.reference}` over the seeds both have.", "",

@@ -18,12 +18,19 @@ def _write(path, rec):
     json.dump(rec, f)
 
 
+def _configured(study_name, scene_name, variant_name, seed, tmp_path):
+  """(study, scene, config) of one run of a study, results and scratch in tmp_path."""
+  study = ablations.STUDIES[study_name]
+  scene = next(s for s in study.scenes if s.name == scene_name)
+  variant = next(v for v in study.variants if v.name == variant_name)
+  c = ablations.configure(study, scene, variant, seed, str(tmp_path / "scratch"),
+                          str(tmp_path / "results"))
+  return study, scene, c
+
+
 def test_a_study_run_stops_each_stage_at_the_suites_mean_steps_on_validation_views(tmp_path):
   root = str(tmp_path / "results")
-  study = ablations.STUDIES["fog"]
-  scene = next(s for s in study.scenes if s.name == "spheres")
-  variant = next(v for v in study.variants if v.name == "density_bias_-4")
-  c = ablations.configure(study, scene, variant, 1, str(tmp_path / "scratch"), root)
+  study, scene, c = _configured("fog", "spheres", "density_bias_-4", 1, tmp_path)
   assert (c.data.test_split, c.data.test_views) == ("val", "all")
   assert c.budget_s == 0.0 and c.seed == 1
   assert (c.lo.stop_at_step, c.ray.stop_at_step, c.hi.stop_at_step) == (466, 732, 570)
@@ -75,10 +82,7 @@ def test_plan_refuses_an_empty_or_bad_selection():
 
 def test_a_time_study_keeps_the_suites_budget_and_reports_fronts_on_validation_views(tmp_path):
   root = str(tmp_path / "results")
-  study = ablations.STUDIES["static_front"]
-  scene = next(s for s in study.scenes if s.name == "spheres")
-  variant = next(v for v in study.variants if v.name == "shares_20_05_75")
-  c = ablations.configure(study, scene, variant, 0, str(tmp_path / "scratch"), root)
+  study, _, c = _configured("static_front", "spheres", "shares_20_05_75", 0, tmp_path)
   assert (c.data.test_split, c.data.test_views) == ("val", "all")
   assert c.budget_s == ablations.suites.CPU.budget_s and c.hi.stop_at_step == 0
   assert tuple(c.eval.front_s) == ablations.suites.CPU.front_s
