@@ -26,7 +26,6 @@ difference from the study's reference variant.
 """
 import dataclasses
 import os
-import re
 import statistics
 import sys
 import time
@@ -38,7 +37,7 @@ from absl import app, flags, logging
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 if __package__ in (None, ""):
   sys.path.insert(0, REPO)
-from experiments import benchmark, fronts_report, run_file, suites  # pylint: disable=g-import-not-at-top
+from experiments import benchmark, fronts_report, run_file, selection, suites  # pylint: disable=g-import-not-at-top
 from halo_jax import runs  # pylint: disable=g-import-not-at-top
 
 FLAGS = flags.FLAGS
@@ -229,16 +228,10 @@ STUDIES = {
 def _plan(study: Study, only: str):
   """[(scene, variant, seed), ...] filtered by the regex `only` (ValueError
   when it is not one, or selects nothing)."""
-  try:
-    pattern = re.compile(only)
-  except re.error as e:
-    raise ValueError(f"--only={only!r} is not a regular expression: {e}") from None
-  out = [(scene, v, seed) for seed in range(study.seeds) for scene in study.scenes
-         for v in study.variants if pattern.search(f"{scene.name}/{v.name}/seed{seed}")]
-  if not out:
-    raise ValueError(f"--only={only!r} matches no run of the study (runs are named "
-                     "scene/variant/seed<k>)")
-  return out
+  runs = [(scene, v, seed) for seed in range(study.seeds) for scene in study.scenes
+          for v in study.variants]
+  return selection.select(runs, lambda r: f"{r[0].name}/{r[1].name}/seed{r[2]}", only,
+                          "variant of the study")
 
 
 def result_path(results, study_name, scene, variant, seed):

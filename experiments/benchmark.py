@@ -19,7 +19,6 @@ every scene. experiments/report.py turns the files into docs/results/.
 """
 import json
 import os
-import re
 import sys
 import time
 import traceback
@@ -29,7 +28,7 @@ from absl import app, flags, logging
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 if __package__ in (None, ""):  # run as a script: the repository root holds `experiments`
   sys.path.insert(0, REPO)
-from experiments import run_file, suites  # pylint: disable=g-import-not-at-top
+from experiments import run_file, selection, suites  # pylint: disable=g-import-not-at-top
 from halo_jax import defaults, runs  # pylint: disable=g-import-not-at-top
 
 FLAGS = flags.FLAGS
@@ -55,20 +54,10 @@ def data_root() -> str:
 def plan(suite: suites.Suite, only: str = ""):
   """[(scene, method, seed), ...] seed-major, filtered by the regex `only`
   (ValueError when it is not one, or selects nothing)."""
-  try:
-    pattern = re.compile(only)
-  except re.error as e:
-    raise ValueError(f"--only={only!r} is not a regular expression: {e}") from None
-  out = []
-  for seed in range(max(s.seeds for s in suite.scenes)):
-    for scene in suite.scenes:
-      if seed < scene.seeds:
-        out += [(scene, m, seed) for m in scene.methods
-                if pattern.search(f"{scene.name}/{m}/seed{seed}")]
-  if not out:
-    raise ValueError(f"--only={only!r} matches no run of the suite (runs are named "
-                     "scene/method/seed<k>; a '+' in a method's name is escaped as \\+)")
-  return out
+  runs = [(scene, m, seed) for seed in range(max(s.seeds for s in suite.scenes))
+          for scene in suite.scenes if seed < scene.seeds for m in scene.methods]
+  return selection.select(runs, lambda r: f"{r[0].name}/{r[1]}/seed{r[2]}", only,
+                          "method of the suite")
 
 
 def result_path(results, suite_name, mode, scene, method, seed):
