@@ -25,6 +25,8 @@ NEUTRAL = {
         "benchmark: --only checked before any run; no run's settings change",
     "3e71848fe09ad84634e10c07dfd1f0c71e962259":
         "benchmark: plan searches with its compiled pattern; the same runs",
+    "e272729bcab79ce153632a6284ac315adb022ca8":
+        "benchmark: plan filters through experiments/selection.py; the same runs",
 }
 
 
