@@ -206,7 +206,8 @@ STUDIES = {
         question=("Whether HALO reaches nerf_tuned's final PSNR sooner when Lo-NeRF gets less "
                   "of the budget (its front flattens before its 72 s end), so that Hi-NeRF "
                   "starts sooner, or when Hi-NeRF, an exact copy of Lo-NeRF, trains at a lower "
-                  "rate, as on the dynamic scenes; without a loss at the end of the budget."),
+                  "rate, as on the dynamic scenes, or when both methods' layers take bfloat16 "
+                  "operands; without a loss at the end of the budget."),
         scenes=_PROCEDURAL,  # the static scenes with validation views here
         variants=(
             Variant("halo", "halo", _shares(0.30, 0.07, 0.63) + _hi_lr(2e-3),
@@ -220,6 +221,10 @@ STUDIES = {
             Variant("hi_lr_5e-4", "halo", _hi_lr(5e-4),
                     "Hi at a quarter of the CPU rate (the paper's, as on dynamic scenes)"),
             Variant("nerf_tuned", "nerf_tuned", note="the baseline, as in the suite"),
+            Variant("bf16", "halo", _both("model.compute_dtype", "bfloat16"),
+                    "Lo's and Hi's layers with bfloat16 operands (study bf16)"),
+            Variant("nerf_tuned_bf16", "nerf_tuned", (("hi.model.compute_dtype", "bfloat16"),),
+                    "the baseline's layers with bfloat16 operands"),
         ),
         reference="halo", seeds=1, budget="time"),
 }
