@@ -236,7 +236,7 @@ def _plan(study: Study, only: str):
   runs = [(scene, v, seed) for seed in range(study.seeds) for scene in study.scenes
           for v in study.variants]
   return selection.select(runs, lambda r: f"{r[0].name}/{r[1].name}/seed{r[2]}", only,
-                          "variant of the study")
+                          part="variant", plan="study")
 
 
 def result_path(results, study_name, scene, variant, seed):
@@ -327,6 +327,16 @@ def _mean_std(xs):
   return f"{statistics.mean(xs):.2f} ± {statistics.stdev(xs):.2f}"
 
 
+def _pairs(study: Study, recs, variant: str) -> list:
+  """[(record, reference record), ...]: `variant`'s runs beside the
+  reference's run of the same scene and seed, over every pair both ran."""
+  out = []
+  for scene in study.scenes:
+    ref = {r["seed"]: r for r in recs.get((scene.name, study.reference), [])}
+    out += [(r, ref[r["seed"]]) for r in recs.get((scene.name, variant), []) if r["seed"] in ref]
+  return out
+
+
 def _overall(study: Study, recs) -> list:
   """Lines of a table: per variant, its difference from the reference over
   every (scene, seed) both ran, and how many of those it lost."""
@@ -334,11 +344,7 @@ def _overall(study: Study, recs) -> list:
   for v in study.variants:
     if v.name == study.reference:
       continue
-    deltas = []
-    for scene in study.scenes:
-      ref = {r["seed"]: r["psnr"] for r in recs.get((scene.name, study.reference), [])}
-      deltas += [r["psnr"] - ref[r["seed"]] for r in recs.get((scene.name, v.name), [])
-                 if r["seed"] in ref]
+    deltas = [r["psnr"] - ref["psnr"] for r, ref in _pairs(study, recs, v.name)]
     if deltas:
       rows.append(f"| `{v.name}` | {len(deltas)} | {statistics.mean(deltas):+.2f} | "
                   f"{min(deltas):+.2f} | {sum(d < 0 for d in deltas)} |")
@@ -360,16 +366,11 @@ def _overall_fronts(study: Study, recs) -> list:
     if v.name == study.reference:
       continue
     deltas = {t: [] for t in times + [None]}
-    for scene in study.scenes:
-      ref = {r["seed"]: r for r in recs.get((scene.name, study.reference), [])}
-      for r in recs.get((scene.name, v.name), []):
-        if r["seed"] not in ref:
-          continue
-        for t in deltas:
-          ours = fronts_report.front_values([r], t)
-          theirs = fronts_report.front_values([ref[r["seed"]]], t)
-          if ours and theirs:
-            deltas[t].append(ours[0] - theirs[0])
+    for r, ref in _pairs(study, recs, v.name):
+      for t in deltas:
+        ours, theirs = fronts_report.front_values([r], t), fronts_report.front_values([ref], t)
+        if ours and theirs:
+          deltas[t].append(ours[0] - theirs[0])
     if deltas[None]:
       rows.append(f"| `{v.name}` | {len(deltas[None])} | " + " | ".join(
           f"{statistics.mean(d):+.2f}" if d else "-" for d in deltas.values()) + " |")

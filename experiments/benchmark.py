@@ -57,7 +57,7 @@ def plan(suite: suites.Suite, only: str = ""):
   runs = [(scene, m, seed) for seed in range(max(s.seeds for s in suite.scenes))
           for scene in suite.scenes if seed < scene.seeds for m in scene.methods]
   return selection.select(runs, lambda r: f"{r[0].name}/{r[1]}/seed{r[2]}", only,
-                          "method of the suite")
+                          part="method", plan="suite")
 
 
 def result_path(results, suite_name, mode, scene, method, seed):

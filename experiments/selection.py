@@ -6,15 +6,16 @@ from typing import Callable, Iterable, List, TypeVar
 T = TypeVar("T")
 
 # A method's name may hold a '+', which a pattern must escape.
-NAMING = "runs are named scene/{what}/seed<k>; a '+' in a name is escaped as \\+"
+NAMING = "runs are named scene/{part}/seed<k>; a '+' in a name is escaped as \\+"
 
 
-def select(runs: Iterable[T], name_of: Callable[[T], str], only: str, what: str) -> List[T]:
+def select(runs: Iterable[T], name_of: Callable[[T], str], only: str, part: str,
+           plan: str) -> List[T]:
   """The runs whose name_of(run) the regex `only` searches, in order.
 
   Raises ValueError, naming the flag, when `only` is not a regular expression
-  or selects nothing; `what` names the middle part ('method', 'variant') and
-  the plan ('suite', 'study') in that message, as 'method of the suite'.
+  or selects nothing; that message names the names' middle part ('method',
+  'variant') and the plan ('suite', 'study').
   """
   try:
     pattern = re.compile(only)
@@ -22,7 +23,6 @@ def select(runs: Iterable[T], name_of: Callable[[T], str], only: str, what: str)
     raise ValueError(f"--only={only!r} is not a regular expression: {e}") from None
   out = [r for r in runs if pattern.search(name_of(r))]
   if not out:
-    part, plan = what.split(" of the ")
     raise ValueError(f"--only={only!r} matches no run of the {plan} "
-                     f"({NAMING.format(what=part)})")
+                     f"({NAMING.format(part=part)})")
   return out

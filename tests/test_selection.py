@@ -11,14 +11,14 @@ def _name(r):
 
 
 def test_selects_by_a_search_of_the_name_in_plan_order():
-  assert selection.select(RUNS, _name, "", "method of the suite") == RUNS
-  assert selection.select(RUNS, _name, "/halo/", "method of the suite") == [RUNS[0], RUNS[2]]
-  assert selection.select(RUNS, _name, r"halo\+unseen", "method of the suite") == [RUNS[1]]
+  assert selection.select(RUNS, _name, "", part="method", plan="suite") == RUNS
+  assert selection.select(RUNS, _name, "/halo/", part="method", plan="suite") == [RUNS[0], RUNS[2]]
+  assert selection.select(RUNS, _name, r"halo\+unseen", part="method", plan="suite") == [RUNS[1]]
 
 
 def test_an_empty_selection_names_the_flag_the_plan_and_the_escape():
   with pytest.raises(ValueError) as e:
-    selection.select(RUNS, _name, "halo+unseen", "variant of the study")
+    selection.select(RUNS, _name, "halo+unseen", part="variant", plan="study")
   msg = str(e.value)
   assert msg.startswith("--only='halo+unseen' matches no run of the study")
   assert "scene/variant/seed<k>" in msg and "\\+" in msg
@@ -26,4 +26,4 @@ def test_an_empty_selection_names_the_flag_the_plan_and_the_escape():
 
 def test_a_bad_pattern_is_refused_before_anything_runs():
   with pytest.raises(ValueError, match=r"--only='\(halo' is not a regular expression"):
-    selection.select(RUNS, _name, "(halo", "method of the suite")
+    selection.select(RUNS, _name, "(halo", part="method", plan="suite")
