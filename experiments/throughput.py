@@ -25,7 +25,7 @@ from ml_collections import config_flags
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 if __package__ in (None, ""):  # run as a script: the repository root holds `experiments`
   sys.path.insert(0, REPO)
-from experiments import run_file, throughput_report  # pylint: disable=g-import-not-at-top
+from experiments import run_file, throughput_report, trace_summary  # pylint: disable=g-import-not-at-top
 from halo_jax import camera, geometry, models, provenance, ray_fields  # pylint: disable=g-import-not-at-top
 from halo_jax import raycast, runs, trig  # pylint: disable=g-import-not-at-top
 from halo_jax.rays import Pixels, Rays, Targets  # pylint: disable=g-import-not-at-top
@@ -41,6 +41,8 @@ flags.DEFINE_integer("rounds", 3, "Rounds per measurement; the fastest is report
 flags.DEFINE_list("measure", ["lo", "ray", "hi", "nerf", "render"],
                   "Which steps to time (a subset for a quick sweep; the committed "
                   "measurements time all).")
+flags.DEFINE_bool("trace", False, "Also trace `repeats` steps of each measured step with "
+                  "jax.profiler and record where the device time goes (experiments/trace_summary.py).")
 flags.DEFINE_integer("peak_n", 2048, "Size n of the n x n x n fp32 matmul that measures the "
                      "peak (2048 fills 2 CPU cores; a GPU needs 8192).")
 
@@ -109,9 +111,12 @@ def step_throughput(loss_fn, cfg, params, data, rays_per_step, samples_per_ray):
       state, loss, _ = fn(state)
     float(loss)
   dt = _best_of_rounds(one_round)
-  return {"s_per_step": dt, "microbatches": cfg.microbatches, "rays_per_s": rays_per_step / dt,
-          "samples_per_s": rays_per_step * samples_per_ray / dt, "gflops": flops / 1e9,
-          "gflops_per_s": flops / dt / 1e9}
+  r = {"s_per_step": dt, "microbatches": cfg.microbatches, "rays_per_s": rays_per_step / dt,
+       "samples_per_s": rays_per_step * samples_per_ray / dt, "gflops": flops / 1e9,
+       "gflops_per_s": flops / dt / 1e9}
+  if FLAGS.trace:
+    r["trace"] = trace_summary.profile(one_round, FLAGS.repeats)
+  return r
 
 
 def render_throughput(c, rf, rf_params, o, d):
@@ -124,11 +129,17 @@ def render_throughput(c, rf, rf_params, o, d):
   hp = models.init_nerf(model, c.hi.model.kind, 0)
   chunk = c.eval.chunk
   oc, dc = jnp.asarray(o[:chunk]), jnp.asarray(d[:chunk])
-  dt = _time(ev[c.eval.block_rays], hp, rf_params, oc, dc)
+  fn = ev[c.eval.block_rays]
+  dt = _time(fn, hp, rf_params, oc, dc)
   fl = _flops(ev[0], hp, rf_params, oc, dc)  # blocks: the same arithmetic, counted once
-  return {"s_per_step": dt, "block_rays": c.eval.block_rays, "rays_per_s": chunk / dt,
-          "samples_per_s": chunk * c.hi.sampler.num_samples / dt,
-          "gflops": fl / 1e9, "gflops_per_s": fl / dt / 1e9}
+  r = {"s_per_step": dt, "block_rays": c.eval.block_rays, "rays_per_s": chunk / dt,
+       "samples_per_s": chunk * c.hi.sampler.num_samples / dt,
+       "gflops": fl / 1e9, "gflops_per_s": fl / dt / 1e9}
+  if FLAGS.trace:
+    r["trace"] = trace_summary.profile(
+        lambda: jax.block_until_ready([fn(hp, rf_params, oc, dc) for _ in range(FLAGS.repeats)]),
+        FLAGS.repeats)
+  return r
 
 
 def main(argv):
@@ -211,6 +222,9 @@ def measure_all(c):
   for name, r in results["steps"].items():
     print(f"{name:7} {1e3 * r['s_per_step']:7.1f} {r['rays_per_s']:9.0f} {r['samples_per_s']:11.0f} "
           f"{r['gflops']:7.2f} {r['gflops_per_s']:8.1f} {100 * r['share_of_peak']:5.1f}%")
+  for name, r in results["steps"].items():
+    if "trace" in r:
+      print(trace_summary.format_summary(name, r["trace"]))
   print("wrote", path)
 
 
