@@ -37,7 +37,7 @@ from absl import app, flags, logging
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 if __package__ in (None, ""):
   sys.path.insert(0, REPO)
-from experiments import benchmark, fronts_report, run_file, selection, suites  # pylint: disable=g-import-not-at-top
+from experiments import benchmark, fronts_report, report_common, run_file, selection, suites  # pylint: disable=g-import-not-at-top
 from halo_jax import runs  # pylint: disable=g-import-not-at-top
 
 FLAGS = flags.FLAGS
@@ -114,6 +114,20 @@ STUDIES = {
             Variant("hi_lr_5e-4+density_bias_-4", "halo",
                     _hi_lr(5e-4) + _both("model.density_bias", -4.0),
                     "Hi at a quarter of the CPU rate, and both NeRFs start at softplus(raw - 4)"),
+        ),
+        reference="halo", seeds=2),
+    "lo_start": Study(
+        title="360-degree scenes: Lo-NeRF's first steps, neither fog nor collapse",
+        question=("Whether Lo-NeRF should train on the centre crop for its first steps: "
+                  "without it (the fog fix) Lo can stay the empty field on a thin object; "
+                  "with 200 steps of it Lo fogged spheres at seed 1."),
+        scenes=suites.VALIDATION_360,
+        variants=(
+            Variant("halo", "halo", (("lo.precrop_steps", 0),),
+                    "Lo on whole images from its first step"),
+            Variant("lo_crop_100", "halo", (("lo.precrop_steps", 100),),
+                    "Lo on the centre crop for its first 100 steps"),
+            Variant("nerf_tuned", "nerf_tuned", note="the baseline, as in the suite"),
         ),
         reference="halo", seeds=2),
     "fog": Study(
@@ -257,6 +271,10 @@ MATCHED_STEPS = {
     "lego_oneside": {"lo": 469, "ray": 375, "hi": 570},
     "fern_4view": {"lo": 494, "ray": 1, "hi": 832},
     "knights": {"hi": 1953},
+    # the stress scenes: spheres' steps (the same image size and models)
+    "thin": {"lo": 466, "ray": 732, "hi": 570},
+    "sparse": {"lo": 466, "ray": 732, "hi": 570},
+    "dnerf_hellwarrior": {"lo": 348, "hi": 403},  # hook's: the same frame count and size
 }
 
 
@@ -355,6 +373,43 @@ def _overall(study: Study, recs) -> list:
           "| variant | pairs | mean Δ | worst Δ | pairs lost |", "|---|---|---|---|---|"] + rows
 
 
+# The rule a default's change must pass (docs/validation.md): measured on at
+# least MIN_SEEDS seeds of every scene of the kind it applies to, it may lose
+# no more than MAX_LOSS_DB (mean over seeds) on any of them.
+MIN_SEEDS, MAX_LOSS_DB = 2, 0.3
+
+
+def default_rule(study: Study, recs, variant: str) -> str:
+  """Whether `variant` may replace the reference as the default: 'passes',
+  'fails: <scenes and their mean Δ>' or 'not measured: <scenes short of
+  seeds>'."""
+  short, losses = [], []
+  for scene in study.scenes:
+    ref = {r["seed"]: r["psnr"] for r in recs.get((scene.name, study.reference), [])}
+    deltas = [r["psnr"] - ref[r["seed"]] for r in recs.get((scene.name, variant), [])
+              if r["seed"] in ref]
+    if len(deltas) < MIN_SEEDS:
+      short.append(scene.name)
+    elif statistics.mean(deltas) < -MAX_LOSS_DB:
+      losses.append(f"{scene.name} {statistics.mean(deltas):+.2f}")
+  if losses:
+    return "fails: " + ", ".join(losses)
+  if short:
+    return "not measured: " + ", ".join(short)
+  return "passes"
+
+
+def _rule_lines(study: Study, recs) -> list:
+  rows = [f"| `{v.name}` | {default_rule(study, recs, v.name)} |" for v in study.variants
+          if v.name != study.reference and v.method == study.variants[0].method]
+  if not rows:
+    return []
+  return ["", "## Against the default rule", "",
+          f"A variant may replace `{study.reference}` only if, on at least {MIN_SEEDS} seeds of "
+          f"every scene of the study, its mean loss on no scene exceeds {MAX_LOSS_DB} dB "
+          "(docs/validation.md).", "", "| variant | verdict |", "|---|---|"] + rows
+
+
 def _overall_fronts(study: Study, recs) -> list:
   """Lines of a table for a time study: per variant, its mean difference
   from the reference at each front time and at the end, over every (scene,
@@ -439,6 +494,10 @@ def report(study_name: str, study: Study, results: str) -> str:
                                      for r in sorted(rs, key=lambda r: r["seed"]))
           for v, rs in rows if rs) + "."]
   lines += _overall(study, recs)
+  lines += _rule_lines(study, recs)
+  lines += [""] + report_common.collapse_lines(
+      [(f"{scene}/{variant}/seed{r['seed']}", r) for (scene, variant), rs in sorted(recs.items())
+       for r in rs])
   if study.budget == "time":
     lines += _overall_fronts(study, recs)
   commits = sorted({(r["provenance"].get("git") or {}).get("commit", "?")[:7]

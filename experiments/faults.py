@@ -159,6 +159,38 @@ def case_full_disk(wd):
   return out
 
 
+def case_small_disk(wd):
+  """A workdir on a 1 MiB disk: the built-in scene's images fill it (a tmpfs;
+  root only). Nothing may follow the one error line (imageio's writers)."""
+  disk = _mounted(wd + "_small", "size=1m") if os.geteuid() == 0 else None
+  if disk is None:
+    return {"exit": -1, "traceback": False, "seconds": 0.0,
+            "message": "(not run: mounting a small disk needs root)", "after_text": ""}
+  try:
+    out = run(main_cmd(os.path.join(disk, "run")))
+  finally:
+    _unmount(disk)
+  out["after_text"] = "no stage marked finished"
+  return out
+
+
+def case_collapsed(wd):
+  """Lo-NeRF built to learn nothing: its density starts at softplus(raw - 30),
+  ~1e-13, where the gradient vanishes, so it stays the empty field."""
+  out = run(main_cmd(wd, "--config.lo.model.density_bias=-30", "--config.lo.steps=16",
+                     "--config.lo.batch_rays=512", "--config.lo.collapse.after_steps=10",
+                     stages="lo,ray,hi"))
+  info = os.path.join(wd, "lo", "final", "info.json")
+  verdict = ""
+  if os.path.exists(info):
+    with open(info) as f:
+      verdict = (json.load(f).get("learned") or {}).get("verdict", "")
+  later = "A LATER STAGE TRAINED" if os.path.exists(os.path.join(wd, "ray")) else (
+      "no later stage trained")
+  out["after_text"] = f"Lo saved with the verdict '{verdict}' in its info.json; {later}"
+  return out
+
+
 def _scene(wd, corrupt):
   """A copy of the built-in scene with one thing broken by `corrupt(root)`."""
   sys.path.insert(0, REPO)
@@ -274,6 +306,9 @@ CASES = [
      lambda wd: _signal_and_resume(wd, signal.SIGINT)),
     ("a workdir in a read-only folder", case_read_only),
     ("a workdir on a full disk (200 kB free)", case_full_disk),
+    ("a workdir on a 1 MiB disk (the built-in scene's images fill it)", case_small_disk),
+    ("a stage that learns nothing (`--config.lo.model.density_bias=-30`: Lo's density starts "
+     "where its gradient vanishes, so it stays the empty field)", case_collapsed),
     ("a training image missing from the scene folder", case_missing_image),
     ("`transforms_train.json` that is not valid JSON", case_malformed_json),
     ("a camera pose that is not rigid (a scaled rotation)", case_non_rigid_pose),

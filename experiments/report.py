@@ -38,7 +38,7 @@ import numpy as np  # pylint: disable=g-import-not-at-top
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 if __package__ in (None, ""):  # run as a script: the repository root holds `experiments`
   sys.path.insert(0, REPO)
-from experiments import fronts_report  # pylint: disable=g-import-not-at-top
+from experiments import fronts_report, report_common  # pylint: disable=g-import-not-at-top
 from experiments.report_common import (  # pylint: disable=g-import-not-at-top
     BASELINE, METHOD_ORDER, in_method_order, mean_pm, stat)
 from halo_jax import runs  # pylint: disable=g-import-not-at-top
@@ -326,6 +326,9 @@ def write_suite(suite, mode, scenes, docs):
          "columns and plots use the first few held-out views (`eval.curve_views`), "
          "evaluated during training.", ""]
   out += [l for l in provenance_lines(scenes) if l] + [""]
+  out += report_common.collapse_lines(
+      [(f"{scene}/{m}/seed{r.get('seed', '?')}", r) for scene, by in sorted(scenes.items())
+       for m, rs in sorted(by.items()) for r in rs]) + [""]
   out += ["## Held-out PSNR", "", summary_table(scenes), ""]
   out += ["## Over scenes", "", over_scenes_table(scenes), ""]
   if any("halo" in by for by in scenes.values()):

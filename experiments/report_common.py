@@ -24,3 +24,22 @@ def mean_pm(v, digits=2):
   if v.size == 1:
     return f"{v[0]:.{digits}f}"
   return f"{v.mean():.{digits}f} ± {v.std(ddof=1):.{digits}f}"
+
+
+def collapse_lines(tagged_records):
+  """Markdown lines counting the collapse check's verdicts
+  (halo_jax/stages/collapse.py) over [(tag, record)]: how many runs learned,
+  which collapsed (tag and stage), and how many carry no verdict (recorded
+  before the check, or too short to judge)."""
+  collapsed = [(t, r["collapsed"]) for t, r in tagged_records if "collapsed" in r]
+  learned = sum(1 for _, r in tagged_records
+                if "collapsed" not in r and "learned" in (r.get("learned") or {}).values())
+  other = len(tagged_records) - learned - len(collapsed)
+  lines = [f"Collapse check (each radiance stage's training PSNR against the best constant "
+           f"image's; halo_jax/stages/collapse.py): {learned} run(s) learned, "
+           f"**{len(collapsed)} collapsed**, {other} without a verdict (recorded before the "
+           "check existed, or too short to judge)."]
+  for tag, c in collapsed:
+    lines.append(f"- collapsed: {tag}, stage `{c['stage']}` ({c['train_psnr']:.2f} dB against "
+                 f"the constant's {c['constant_psnr']:.2f})")
+  return lines

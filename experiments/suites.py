@@ -72,6 +72,50 @@ CPU = Suite(
               LIGHT_FIELD_METHODS),
     ))
 
+# Views that are neither training nor test views of any protocol: lego's
+# training views that neither the 8-view nor the one-side list uses.
+LEGO_VALIDATION_VIEWS = "r_0,r_11,r_18,r_22,r_29,r_33,r_44,r_47,r_66,r_77,r_88,r_99"
+_LEGO_VALIDATION = (("data.test_split", "train"), ("data.test_views", LEGO_VALIDATION_VIEWS))
+
+# Stress scenes (docs/validation.md): built-in scenes where a setting chosen on
+# spheres and lattice can fail: a thin object on white, a mostly empty volume.
+STRESS = (
+    Scene("thin", "configs/procedural.py:thin_8view_cpu", 2, validation="val"),
+    Scene("sparse", "configs/procedural.py:sparse_8view_cpu", 2, validation="val"),
+)
+
+# fern's images outside the 4-view split (train 005 013 015 016, test 014)
+FERN_VALIDATION_VIEWS = "000,001,002,003,004,006,007,008,009,010,011,012,017,018,019"
+# knights' grid views between the training corners, off the test views
+KNIGHTS_VALIDATION_VIEWS = "06_06,06_10,10_06,10_10,08_08,05_08,11_08,08_04"
+
+# The 360-degree scenes with views for choosing settings (docs/validation.md):
+# the built-in scenes' val cameras, lego's unused training views.
+VALIDATION_360 = (
+    Scene("spheres", "configs/procedural.py:spheres_8view_cpu", 2, validation="val"),
+    Scene("lattice", "configs/procedural.py:lattice_8view_cpu", 2, validation="val"),
+    *STRESS,
+    Scene("lego_8view", "configs/blender.py:lego_8view_cpu", 2, "nerf_synthetic/lego",
+          overrides=_LEGO_VALIDATION),
+    Scene("lego_oneside", "configs/blender.py:lego_oneside_cpu", 2, "nerf_synthetic/lego",
+          overrides=_LEGO_VALIDATION),
+)
+
+# Every scene kind with views that are neither training nor test views: where
+# a default is chosen (docs/validation.md). The suite's overrides put each
+# scene's validation views in the test slot; scenes override them where
+# their views are not a split of their own.
+VALIDATION_SCENES = VALIDATION_360 + (
+    Scene("dnerf_lego", "configs/dnerf.py:lego_cpu", 2, "dnerf/lego"),
+    Scene("dnerf_hook", "configs/dnerf.py:hook_cpu", 2, "dnerf/hook"),
+    Scene("dnerf_jumpingjacks", "configs/dnerf.py:jumpingjacks_cpu", 2, "dnerf/jumpingjacks"),
+    Scene("dnerf_hellwarrior", "configs/dnerf.py:hellwarrior_cpu", 2, "dnerf/hellwarrior"),
+    Scene("fern_4view", "configs/llff.py:fern_4view_cpu", 2, "nerf_llff_data/fern",
+          FORWARD_FACING_METHODS, overrides=(("data.test_views", FERN_VALIDATION_VIEWS),)),
+    Scene("knights", "configs/stanford_lf.py:knights_cpu", 2, "stanford_lf/knights",
+          LIGHT_FIELD_METHODS, overrides=(("data.test_views", KNIGHTS_VALIDATION_VIEWS),)),
+)
+
 # A few seconds per run: the benchmark's own test and a quick look at the machinery.
 SMOKE = Suite(
     description="Two methods on the built-in scene for a few seconds (tests).",

@@ -57,6 +57,11 @@ def _train(steps, batch_rays, lr_init, lr_final):
       log_every=100,          # steps between metrics.jsonl lines
       eval_every=0,           # steps between held-out evaluations (0: only at the end)
       eval_every_s=0.0,       # or seconds of training time between them
+      # whether the stage learned anything (stages/collapse.py): its median
+      # training PSNR over the last `window` of its steps must be margin_db
+      # above the best constant image's; stages shorter than after_steps are
+      # not judged
+      collapse=dict(margin_db=1.0, after_steps=200, window=0.2),
   )
 
 

@@ -14,7 +14,7 @@ import os
 
 from halo_jax import datasets, parallel, provenance, stages, trig, tuning, validate
 from halo_jax import workdir_lock
-from halo_jax.stages import base, metrics_log
+from halo_jax.stages import base, collapse, metrics_log
 from halo_jax.stages.order import needed, parse_stages, stage_names
 from halo_jax.stages.state import load, save, stage_dir
 from halo_jax.stages.workdir import check_workdir
@@ -51,11 +51,15 @@ def _info_path(workdir, name):
 
 
 def _restore(config, name, dataset, workdir):
-  """A finished stage's state and its info.json, from the workdir."""
+  """A finished stage's state and its info.json, from the workdir
+  (collapse.Collapsed for a stage that was saved collapsed)."""
   like = base.trainer_of(config, name).params_like(config, name, dataset)
   state = load(workdir, name, like)
   with open(_info_path(workdir, name)) as f:
-    return state, json.load(f)
+    info = json.load(f)
+  if collapse.collapsed(info):
+    raise collapse.Collapsed(name, info["learned"], {name: info})
+  return state, info
 
 
 def run(config, workdir: str, dataset=None, pacer=None) -> dict:
@@ -67,7 +71,9 @@ def run(config, workdir: str, dataset=None, pacer=None) -> dict:
   The config is validated before any work (halo_jax.validate), and the
   workdir is locked for this process (workdir_lock: a second launch into it
   is refused). info holds the stage's training seconds ('wall_s'), steps,
-  skipped steps and, for stages that render images, the held-out evaluation.
+  skipped steps, the verdict on whether it learned anything ('learned',
+  stages/collapse.py) and, for stages that render images, the held-out
+  evaluation. A stage that collapsed is saved and raises collapse.Collapsed.
   """
   validate.validate(config)
   # In a multi-process job the processes share the workdir; process 0 holds it.
@@ -110,6 +116,8 @@ def _run(config, workdir, dataset, pacer):
       with open(_info_path(workdir, name), "w") as f:
         json.dump(info, f, indent=1)
     states[name], infos[name] = state, info
+    if collapse.collapsed(info):  # saved for a look, never handed on
+      raise collapse.Collapsed(name, info["learned"], infos)
   return infos
 
 
@@ -120,12 +128,14 @@ def _cell(value, fmt, width):
 
 def table(infos) -> str:
   """The stages' steps, training seconds and held-out metrics, one line each."""
-  lines = [f"{'stage':6} {'steps':>6} {'train s':>8} {'PSNR':>7} {'SSIM':>6} {'LPIPS':>6}"]
+  lines = [f"{'stage':6} {'steps':>6} {'train s':>8} {'PSNR':>7} {'SSIM':>6} {'LPIPS':>6} "
+           "learned"]
   for name, info in infos.items():
     ev = info.get("eval", {})
     lines.append(f"{name:6} {info['step']:6d} {info['wall_s']:8.1f} "
                  f"{_cell(ev.get('psnr'), '.2f', 7)} {_cell(ev.get('ssim'), '.3f', 6)} "
-                 f"{_cell(ev.get('lpips'), '.3f', 6)}")
+                 f"{_cell(ev.get('lpips'), '.3f', 6)} "
+                 f"{(info.get('learned') or {}).get('verdict', '-')}")
   return "\n".join(lines)
 
 

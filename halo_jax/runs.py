@@ -10,6 +10,7 @@ import json
 import os
 
 from halo_jax import config_files, pipeline, provenance
+from halo_jax.stages import collapse
 
 
 def load_config(spec: str):
@@ -80,9 +81,19 @@ def read_curve(workdir):
 
 
 def run_method(config, workdir, dataset=None) -> dict:
-  """Trains `config` in `workdir` (resuming what is there) and returns its record."""
-  infos = pipeline.run(config, workdir, dataset)
-  last = infos[config.final_stage]["eval"]
+  """Trains `config` in `workdir` (resuming what is there) and returns its record.
+
+  A run whose stage collapsed (stages/collapse.py) is recorded too, flagged:
+  its figures are the collapsed stage's held-out evaluation (the last images
+  the method made), and record['collapsed'] names the stage and its verdict."""
+  collapsed = None
+  try:
+    infos = pipeline.run(config, workdir, dataset)
+    final = config.final_stage
+  except collapse.Collapsed as e:
+    infos, final = e.infos, e.stage
+    collapsed = {"stage": e.stage, **e.verdict}
+  last = infos[final]["eval"]
   rounded = {n: {k: round(v, 5) for k, v in m.items()} for n, m in last["per_view"].items()}
   return {"psnr": last["psnr"], "ssim": last["ssim"], "lpips": last.get("lpips"),
           **({"flicker": last["flicker"]} if "flicker" in last else {}),
@@ -94,9 +105,19 @@ def run_method(config, workdir, dataset=None) -> dict:
                             if k in i},
                          **({"psnr": i["eval"]["psnr"]} if "eval" in i else {})}
                      for n, i in infos.items()},
+          "learned": {n: i["learned"]["verdict"] for n, i in infos.items() if "learned" in i},
+          **({"collapsed": collapsed} if collapsed else {}),
           "curve": read_curve(workdir),
           **_frequency_choice(workdir),
           "provenance": provenance.collect()}
+
+
+def learned_cell(record: dict) -> str:
+  """'yes', 'collapsed (<stage>)' or '-' (no verdict: a smoke run or an old record)."""
+  if "collapsed" in record:
+    return f"collapsed ({record['collapsed']['stage']})"
+  verdicts = set((record.get("learned") or {}).values())
+  return "yes" if collapse.LEARNED in verdicts else "-"
 
 
 def _frequency_choice(workdir):

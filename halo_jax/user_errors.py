@@ -11,6 +11,7 @@ import jax
 from halo_jax.datasets.base import DataError
 from halo_jax.registry import ConfigError
 from halo_jax.restore import NothingToRestore
+from halo_jax.stages.collapse import Collapsed
 from halo_jax.stages.loop import NonFiniteError
 from halo_jax.stages import preemption
 from halo_jax.stages.preemption import Preempted
@@ -18,7 +19,7 @@ from halo_jax.stages.state import StageMissing
 from halo_jax.stages.workdir import WorkdirMismatch
 from halo_jax.workdir_lock import DISK_ERRNOS, WorkdirLocked, WorkdirUnwritable, unwritable
 
-USER_ERRORS = (ConfigError, DataError, NonFiniteError, NothingToRestore, StageMissing,
+USER_ERRORS = (Collapsed, ConfigError, DataError, NonFiniteError, NothingToRestore, StageMissing,
                WorkdirLocked, WorkdirMismatch, WorkdirUnwritable)
 EXIT_CODE = 2
 LOST_PEER_EXIT_CODE = 3

@@ -2,9 +2,10 @@
 import os
 
 import imageio.v2 as imageio_v2
-import imageio.v3 as iio
 import matplotlib
 import numpy as np
+
+from halo_jax import image_files
 
 
 def has_ffmpeg() -> bool:
@@ -50,5 +51,5 @@ def write(path_stem: str, frames, fps: float = 20.0) -> str:
         writer.append_data(frame)
     return path
   path = path_stem + ".gif"
-  iio.imwrite(path, frames, duration=1000.0 / fps, loop=0)
+  image_files.write(path, frames, duration=1000.0 / fps, loop=0)
   return path

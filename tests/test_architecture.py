@@ -16,7 +16,7 @@ PACKAGE = pathlib.Path(__file__).resolve().parent.parent / "halo_jax"
 LAYERS = (
     {"registry", "geometry", "rays", "trig", "encoding", "camera", "rng", "samplers", "render", "raycast",
      "losses", "metrics", "lightfield", "frequency", "plots", "provenance", "visibility",
-     "tensorboard", "video", "config_files", "tables"},
+     "tensorboard", "video", "image_files", "config_files", "tables"},
     {"models", "ray_fields", "datasets", "checkpoint", "parallel", "evaluate", "defaults",
      "camera_paths", "view_pairs",
      "workdir_lock"},

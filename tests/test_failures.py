@@ -102,10 +102,11 @@ def test_bad_config_is_one_line_and_exit_2(args, message, tmp_path):
 
 def test_table_shows_a_dash_for_metrics_a_stage_does_not_have():
   text = pipeline.table({"ray": {"step": 3, "wall_s": 1.0},
-                     "hi": {"step": 4, "wall_s": 2.0, "eval": {"psnr": 20.0, "ssim": 0.5}}})
+                     "hi": {"step": 4, "wall_s": 2.0, "eval": {"psnr": 20.0, "ssim": 0.5},
+                            "learned": {"verdict": "learned"}}})
   ray, hi = text.splitlines()[1:]
-  assert ray.split()[-3:] == ["-", "-", "-"] and "nan" not in text
-  assert hi.split()[-3:] == ["20.00", "0.500", "-"]
+  assert ray.split()[-4:] == ["-", "-", "-", "-"] and "nan" not in text
+  assert hi.split()[-4:] == ["20.00", "0.500", "-", "learned"]
 
 
 # A Lo-NeRF small enough that a launch spends its time compiling, not training.

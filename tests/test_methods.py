@@ -186,7 +186,7 @@ RULES = [
     (_set(_knights, hi__freq_reg__end=0.9),
      r"hi.freq_reg.end=0.9: the light-field stage has no P.E. bands"),
     (_set(tiny_config, data__procedural_scene="cube"),
-     r"data.procedural_scene='cube': must be one of \['lattice', 'spheres', 'textured'\]"),
+     r"data.procedural_scene='cube': must be one of \['lattice', 'sparse', 'spheres', 'textured', 'thin'\]"),
     (_set(tiny_config, lo__lr_init=float("nan")), r"lo.lr_init=nan: must be a positive number"),
     (_set(tiny_config, hi__microbatches=3), r"hi.microbatches=3 does not divide hi.batch_rays=64"),
     (_set(tiny_config, hi__sampler__kind="importance"),

@@ -15,6 +15,7 @@ retrained: their final states are in DIR/<method>).
 """
 import json
 import os
+import sys
 
 from absl import app, flags
 import matplotlib
@@ -64,15 +65,19 @@ def write_report(results, workdir, n_test):
   level = runs.common_level(list(results.values()))
   reach = f"s to {level:.1f} dB" if level is not None else ""
   header = (["method", "held-out PSNR", "SSIM", "LPIPS (VGG)"] + (["flicker"] if dynamic else [])
-            + ["training s"] + ([reach] if reach else []))
+            + ["training s"] + ([reach] if reach else []) + ["learned"])
   rows = []
   for name, r in results.items():
     rows.append([name, f"{r['psnr']:.2f}", f"{r['ssim']:.3f}", tables.cell(r.get("lpips"), ".3f")]
                 + ([tables.cell(r.get("flicker"), ".2f")] if dynamic else [])
                 + [f"{r['wall_s']:.0f}"]
-                + ([tables.cell(runs.seconds_to_reach([r], level), ".0f")] if reach else []))
+                + ([tables.cell(runs.seconds_to_reach([r], level), ".0f")] if reach else [])
+                + [runs.learned_cell(r)])
   note = (" Flicker: mean |I(t+1) - 2 I(t) + I(t-1)| in 8-bit levels over a video at the "
           "first held-out camera (halo_jax.metrics.temporal_flicker)." if dynamic else "")
+  note += (" 'learned': whether every stage beat the best constant image on its training "
+           "rays (halo_jax/stages/collapse.py); a collapsed method's figures are its "
+           "collapsed stage's.")
   if reach:
     note += (f" 's to {level:.1f} dB': training seconds until the held-out curve (the first "
              f"eval.curve_views views) first reached {level:.1f} dB, 0.5 dB under the lowest "
@@ -123,6 +128,12 @@ def run(config):
     with open(results_path, "w") as f:
       json.dump(results, f, indent=1)
   print(write_report(results, FLAGS.workdir, n_test))
+  collapsed = [f"{n} ({r['collapsed']['stage']})" for n, r in results.items() if "collapsed" in r]
+  if collapsed:
+    print(f"error: {len(collapsed)} method(s) learned nothing: {', '.join(collapsed)} "
+          "(a stage no better than the best constant image on its training rays; "
+          "their rows above are flagged)", file=sys.stderr)
+    raise SystemExit(2)
 
 
 def cli():

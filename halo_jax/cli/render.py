@@ -12,10 +12,9 @@ plugin is not installed) and the first colour frame as PNG.
 import os
 
 from absl import app, flags, logging
-import imageio.v3 as iio
 import numpy as np
 
-from halo_jax import camera_paths, evaluate, restore, user_errors, video
+from halo_jax import camera_paths, evaluate, image_files, restore, user_errors, video
 
 FLAGS = flags.FLAGS
 
@@ -54,7 +53,7 @@ def render_path(workdir, stage=None, path=None, frames=60, fps=20.0, out=None,
       "depth": video.write(stem + "_depth", video.colorize(depth, lo, hi, mask=seen), fps),
       "acc": video.write(stem + "_acc", np.repeat(r["acc"][..., None], 3, -1), fps),
       "frames": len(views.names), "size": (views.height, views.width)}
-  iio.imwrite(stem + "_color_frame0.png", video.to_uint8(r["rgb"][0]))
+  image_files.write(stem + "_color_frame0.png", video.to_uint8(r["rgb"][0]))
   return written
 
 

@@ -16,6 +16,10 @@ of radius 4.03 as in the Blender scenes. SCENES:
             frame's width); training cameras only on one half of the
             azimuths (x > 0), test cameras on the full orbit, so half of
             every test orbit looks at sides no training view saw.
+  thin      stress: a plant (a thin stem, small leaves on a spiral, a small
+            pot) covering about a tenth of each frame, on white.
+  sparse    stress: two small objects far apart in a mostly empty volume
+            (a few per cent of each frame).
 
 Every scene also has a `val` split: cameras at random azimuths (all round,
 whatever the training side) and elevations, none on the test orbit, for
@@ -26,10 +30,9 @@ import json
 import os
 from typing import Callable, Tuple
 
-import imageio.v3 as iio
 import numpy as np
 
-from halo_jax import camera
+from halo_jax import camera, image_files
 
 RADIUS = 4.03
 CAMERA_ANGLE_X = 0.6911112070083618  # the lego scene's field of view
@@ -164,6 +167,30 @@ def _lattice():
   return (sphere((0.0, 0.0, 0.0), 0.4, _core_tex), *rods, *bars)
 
 
+def _leaf_tex(lon, lat):  # two greens in bands: texture on a thin object
+  s = (np.sin(6 * lon + 9 * lat) > 0).astype(np.float64)[..., None]
+  return s * np.array([0.2, 0.55, 0.2]) + (1 - s) * np.array([0.1, 0.35, 0.12])
+
+
+def _stem_tex(z):
+  s = (np.sin(np.pi * z / 0.15) > 0).astype(np.float64)[..., None]
+  return s * np.array([0.45, 0.3, 0.15]) + (1 - s) * np.array([0.3, 0.2, 0.1])
+
+
+def _thin():
+  """A plant: a thin stem, small leaves on a spiral round it, a small pot."""
+  leaves = [sphere((0.38 * np.cos(a), 0.38 * np.sin(a), z), 0.12, _leaf_tex)
+            for a, z in zip(np.linspace(0, 5 * np.pi, 12), np.linspace(-0.5, 1.0, 12))]
+  return (tube(0.0, 0.0, 0.04, -0.85, 1.1, _stem_tex), *leaves,
+          box((-0.22, -0.22, -1.15), (0.22, 0.22, -0.85), _slab_tex))
+
+
+def _sparse():
+  """Mostly empty volume: two small objects far apart."""
+  return (sphere((0.7, 0.5, 0.35), 0.28, _stripes_tex),
+          box((-0.95, -0.75, -0.7), (-0.65, -0.45, -0.4), _slab_tex))
+
+
 @dataclasses.dataclass(frozen=True)
 class Scene:
   primitives: Tuple[Primitive, ...]
@@ -179,6 +206,10 @@ SCENES = {
     # dense random texture everywhere: what structure-from-motion needs to
     # recover its cameras (the capture loader's test)
     "textured": Scene(_textured()),
+    # stress scenes (docs/validation.md): a thin object on white, about a tenth
+    # of each frame; and a volume that is mostly empty
+    "thin": Scene(_thin()),
+    "sparse": Scene(_sparse()),
 }
 
 
@@ -239,7 +270,7 @@ def generate(root: str, size: int = 100, num_train: int = 100, num_test: int = 2
     for i, c2w in enumerate(poses):
       o, d = camera.pixel_rays(c2w, size, size, focal)
       rgba, _ = render_rays(o.astype(np.float64), d.astype(np.float64), scene)
-      iio.imwrite(os.path.join(root, split, f"r_{i}.png"),
+      image_files.write(os.path.join(root, split, f"r_{i}.png"),
                   np.round(rgba * 255).astype(np.uint8))
       frames.append({"file_path": f"./{split}/r_{i}", "transform_matrix": c2w.tolist()})
     with open(os.path.join(root, f"transforms_{split}.json"), "w") as f:

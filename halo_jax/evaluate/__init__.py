@@ -2,11 +2,10 @@
 import json
 import os
 
-import imageio.v3 as iio
 import jax.numpy as jnp
 import numpy as np
 
-from halo_jax import metrics, parallel
+from halo_jax import image_files, metrics, parallel
 from halo_jax import raycast
 
 
@@ -62,7 +61,7 @@ def flicker(eval_fn, views, chunk, num_frames, out_dir=None):
   if out_dir and parallel.is_primary():
     os.makedirs(out_dir, exist_ok=True)
     strip = (np.clip(np.concatenate(list(frames), 1), 0, 1) * 255).round().astype(np.uint8)
-    iio.imwrite(os.path.join(out_dir, "flicker.png"), strip)
+    image_files.write(os.path.join(out_dir, "flicker.png"), strip)
   return float(metrics.temporal_flicker(jnp.asarray(frames)))
 
 
@@ -87,5 +86,5 @@ def evaluate(eval_fn, views, chunk, out_dir, near, far, save_images=True, with_l
       rgb = (np.clip(out["rgb"][i], 0, 1) * 255).round().astype(np.uint8)
       gt = (views.images[i] * 255).round().astype(np.uint8)
       dep = depth_to_image(out["depth"][i], near, far)
-      iio.imwrite(os.path.join(out_dir, f"{name}.png"), np.concatenate([gt, rgb, dep], 1))
+      image_files.write(os.path.join(out_dir, f"{name}.png"), np.concatenate([gt, rgb, dep], 1))
   return result

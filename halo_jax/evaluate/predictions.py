@@ -11,10 +11,9 @@ independent tool can re-score them:
 import json
 import os
 
-import imageio.v3 as iio
 import numpy as np
 
-from halo_jax import video
+from halo_jax import image_files, video
 
 def write(out_dir, names, rgb, gt, depth, acc, near, far, info) -> None:
   """names [V]; rgb, gt [V, H, W, 3] floats in [0, 1]; depth, acc [V, H, W];
@@ -22,12 +21,12 @@ def write(out_dir, names, rgb, gt, depth, acc, near, far, info) -> None:
   for sub in ("color", "gt-color", "depth", "depth-rgb", "acc"):
     os.makedirs(os.path.join(out_dir, sub), exist_ok=True)
   for i, name in enumerate(names):
-    iio.imwrite(os.path.join(out_dir, "color", f"{name}.png"), video.to_uint8(rgb[i]))
-    iio.imwrite(os.path.join(out_dir, "gt-color", f"{name}.png"), video.to_uint8(gt[i]))
+    image_files.write(os.path.join(out_dir, "color", f"{name}.png"), video.to_uint8(rgb[i]))
+    image_files.write(os.path.join(out_dir, "gt-color", f"{name}.png"), video.to_uint8(gt[i]))
     np.save(os.path.join(out_dir, "depth", f"{name}.npy"), np.asarray(depth[i], np.float32))
-    iio.imwrite(os.path.join(out_dir, "depth-rgb", f"{name}.png"),
+    image_files.write(os.path.join(out_dir, "depth-rgb", f"{name}.png"),
                 video.colorize(depth[i], near, far, mask=np.asarray(acc[i]) > 0.5))
-    iio.imwrite(os.path.join(out_dir, "acc", f"{name}.png"),
+    image_files.write(os.path.join(out_dir, "acc", f"{name}.png"),
                 video.to_uint8(np.asarray(acc[i])[..., None].repeat(3, -1)))
   full = {"evaluation_protocol": "nerf",
           "render_dataset_metadata": {"color_space": "srgb", "background_color": None},

@@ -24,7 +24,7 @@ import numpy as np
 from halo_jax import (evaluate, geometry, lightfield, losses, metrics, models, parallel,
                       ray_fields, raycast, registry, render, rng, samplers)
 from halo_jax.rays import Batch, Rays
-from halo_jax.stages import base, batches, loop, microbatch, terms
+from halo_jax.stages import base, batches, collapse, loop, microbatch, terms
 from halo_jax.stages.radiance import joint_window
 from halo_jax.stages.state import StageState, stage_dir
 
@@ -310,7 +310,8 @@ def train(ctx: base.StageContext):
   params, step, info = loop.train(name, cfg, ctx.workdir,
                                   init_params(model, ray_model, config.seed), step_loss,
                                   data, config.seed, eval_fn, ctx.log, ctx.wall_offset, ctx.mesh,
-                                  snapshot_s=ctx.front_s, pacer=ctx.pacer)
+                                  snapshot_s=ctx.front_s, pacer=ctx.pacer,
+                                  constant_psnr=collapse.constant_psnr(dataset.train.images))
   final = functools.partial(render_eval, (params, joint_window(cfg, step)))
   info["eval"] = evaluate.evaluate(final, dataset.test, config.eval.chunk,
                                    os.path.join(stage_dir(ctx.workdir, name), "eval"), 0.0, 1.0,

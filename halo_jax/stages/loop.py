@@ -10,7 +10,7 @@ from typing import Callable, Optional
 import jax
 
 from halo_jax import checkpoint, parallel, tensorboard
-from halo_jax.stages import pacing, preemption, progress, snapshots
+from halo_jax.stages import collapse, pacing, preemption, progress, snapshots
 from halo_jax.stages.metrics_log import MetricsLog
 from halo_jax.stages.step import NONFINITE_WHAT, initial_state, make_step, optimizer, schedule
 
@@ -175,7 +175,8 @@ class _Run:
 
 def train(name: str, cfg, workdir: str, params, loss_fn: Callable, data, seed: int,
           eval_fn: Optional[Callable] = None, log: Optional[MetricsLog] = None,
-          wall_offset: float = 0.0, mesh=None, snapshot_s=(), pacer=None):
+          wall_offset: float = 0.0, mesh=None, snapshot_s=(), pacer=None,
+          constant_psnr: Optional[float] = None):
   """Trains `params` on `loss_fn` for cfg.steps (or cfg.max_seconds, but never
   fewer than cfg.min_steps) and returns them.
 
@@ -199,11 +200,13 @@ def train(name: str, cfg, workdir: str, params, loss_fn: Callable, data, seed: i
     snapshot_s: the method's training seconds (wall_offset included) at which
       to save the parameters for its error-against-time front (snapshots.py).
     pacer: a pacing.Pacer whose driver grants every step (or None: free).
+    constant_psnr: collapse.constant_psnr of the training pixels, for the
+      verdict on whether the stage learned anything (None: no images).
 
   Returns:
-    (params, step, info) with info = {'wall_s', 'skipped', 'compile_s'}:
-    training seconds exclude the step's compilation (compile_s) and held-out
-    evaluations.
+    (params, step, info), info = {'wall_s', 'skipped', 'compile_s',
+    'past_time_cap', 'learned' (collapse.verdict)}: training seconds exclude
+    the step's compilation (compile_s) and held-out evaluations.
   """
   log = log or MetricsLog(workdir)
   tx = optimizer(cfg)
@@ -228,11 +231,19 @@ def train(name: str, cfg, workdir: str, params, loss_fn: Callable, data, seed: i
     bar.close()  # before any error line, so it starts a line of its own
     if board is not None:
       board.close()
-  info = {"wall_s": run.wall_s, "skipped": int(run.state["skipped"]), "compile_s": compile_s,
+  info = _info(run, start, step, compile_s, constant_psnr)
+  return parallel.to_local(run.state["params"]), step, info
+
+
+def _info(run, start, step, compile_s, constant_psnr) -> dict:
+  """`train`'s info of a finished loop that began at `start` and ended at `step`."""
+  cfg = run.cfg
+  return {"wall_s": run.wall_s, "skipped": int(run.state["skipped"]), "compile_s": compile_s,
           # the time cap was reached before the floor of steps: trained past it
           "past_time_cap": bool(cfg.max_seconds and run.wall_s > cfg.max_seconds
-                                and start < step <= cfg.min_steps)}
-  return parallel.to_local(run.state["params"]), step, info
+                                and start < step <= cfg.min_steps),
+          "learned": collapse.verdict(run.log.training_psnr(run.name), constant_psnr,
+                                      **cfg.collapse)}
 
 
 def _loop(run, step_fn, data, base_key, bar, start, cfg):

@@ -18,6 +18,22 @@ class MetricsLog:
     with open(self.path, "a") as f:
       f.write(json.dumps(record) + "\n")
 
+  def training_psnr(self, stage: str) -> list:
+    """[(step, batch PSNR)] of `stage`'s training records, in step order (the
+    last of each step: a resumed run's records replace the killed run's)."""
+    if not os.path.exists(self.path):
+      return []
+    by_step = {}
+    with open(self.path) as f:
+      for line in f:
+        try:
+          rec = json.loads(line)
+        except json.JSONDecodeError:
+          continue
+        if rec.get("stage") == stage and not rec.get("heldout") and "psnr" in rec:
+          by_step[int(rec["step"])] = float(rec["psnr"])
+    return sorted(by_step.items())
+
   def drop_after(self, stage: str, step: int) -> None:
     """Removes `stage`'s records past `step` (written by a run killed after its
     last checkpoint), so a resumed run logs each step once. Atomic rewrite."""

@@ -17,7 +17,7 @@ import jax
 from halo_jax import evaluate, geometry, lightfield, models, parallel, ray_fields, raycast
 from halo_jax import registry, samplers
 from halo_jax.rays import Batch
-from halo_jax.stages import base, batches, loop, microbatch, terms
+from halo_jax.stages import base, batches, collapse, loop, microbatch, terms
 from halo_jax.stages.state import StageState, stage_dir
 from halo_jax.stages.transfer import transfer_from_lo
 
@@ -242,7 +242,8 @@ def train(ctx: base.StageContext):
   step_loss = functools.partial(loss_fn, s=settings)
   params, step, info = loop.train(name, cfg, ctx.workdir, params, step_loss, data, config.seed,
                                   eval_fn, ctx.log, ctx.wall_offset + bank_s, ctx.mesh,
-                                  snapshot_s=ctx.front_s, pacer=ctx.pacer)
+                                  snapshot_s=ctx.front_s, pacer=ctx.pacer,
+                                  constant_psnr=collapse.constant_psnr(ds.train.images))
   info["wall_s"] += bank_s
   eval_dir = os.path.join(stage_dir(ctx.workdir, name), "eval")
   final = make_eval(params, step)
