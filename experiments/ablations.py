@@ -127,6 +127,25 @@ STUDIES = {
                     "Lo on whole images from its first step"),
             Variant("lo_crop_100", "halo", (("lo.precrop_steps", 100),),
                     "Lo on the centre crop for its first 100 steps"),
+            Variant("lo_fg_200", "halo", (("lo.precrop_steps", 0), ("lo.fg_steps", 200),
+                                          ("lo.fg_fraction", 0.5)),
+                    "half of each batch of Lo's first 200 steps from the pixels that are not "
+                    "the white background, the rest from all pixels"),
+            Variant("nerf_tuned", "nerf_tuned", note="the baseline, as in the suite"),
+        ),
+        reference="halo", seeds=2),
+    "dnerf_hi_crop": Study(
+        title="D-NeRF: Hi-NeRF's centre crop after the copy of Lo-NeRF",
+        question=("Whether Hi-NeRF, started as Lo-NeRF's exact copy, should go back to the "
+                  "centre crop for its first 200 steps (about half of its CPU steps; the "
+                  "baseline's crop, and TiNeuVox has none), on every D-NeRF scene's val "
+                  "frames."),
+        scenes=tuple(s for s in suites.VALIDATION_SCENES if s.name.startswith("dnerf_")),
+        variants=(
+            Variant("halo", "halo", (("hi.precrop_steps", 200),),
+                    "Hi on the centre crop for its first 200 steps (Lo's)"),
+            Variant("hi_no_crop", "halo", (("hi.precrop_steps", 0),),
+                    "Hi on whole images from the copy on"),
             Variant("nerf_tuned", "nerf_tuned", note="the baseline, as in the suite"),
         ),
         reference="halo", seeds=2),

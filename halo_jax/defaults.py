@@ -91,6 +91,10 @@ def _radiance_stage(L, scale, use_viewdirs, steps, num_samples, sampler):
   cfg.precrop_steps = 500
   cfg.precrop_frac = 0.5
   cfg.one_image = False     # draw each step's rays from one random training view
+  # for the first fg_steps steps, fg_fraction of each batch from the pixels
+  # that are not the white background (stages/batches.py; 0: off)
+  cfg.fg_steps = 0
+  cfg.fg_fraction = 0.5
   # Start from Lo-NeRF's weights: every layer of equal shape (the authors'
   # option, input layers excluded), or exactly Lo's function with
   # encoding.with_lo, which prepends Lo-NeRF's P.E. to this stage's (not for

@@ -106,3 +106,17 @@ def test_the_command_line_stops_with_one_line(tmp_path):
   errors = [line for line in res.stderr.splitlines() if line.startswith("error:")]
   assert len(errors) == 1 and "stage 'lo' collapsed" in errors[0]
   assert "Traceback" not in res.stderr
+
+
+def test_the_comparison_table_flags_a_collapsed_method(tmp_path):
+  from halo_jax.cli import compare
+  ok = {"psnr": 20.0, "ssim": 0.8, "lpips": 0.2, "wall_s": 10.0, "curve": [[5.0, 18.0]],
+        "learned": {"lo": "learned", "ray": "unchecked", "hi": "learned"}}
+  dead = dict(ok, psnr=11.0, learned={"lo": "collapsed"},
+              collapsed={"stage": "lo", "train_psnr": 11.5, "constant_psnr": 12.0})
+  old = {k: v for k, v in ok.items() if k != "learned"}  # a record from before the check
+  table = compare.write_report({"halo": ok, "nerf_tuned": dead, "freenerf": old},
+                               str(tmp_path), 2)
+  rows = {line.split("|")[1].strip(): line.split("|")[-2].strip()
+          for line in table.splitlines() if line.startswith("| ") and "method" not in line}
+  assert rows == {"halo": "yes", "nerf_tuned": "collapsed (lo)", "freenerf": "-"}

@@ -23,16 +23,32 @@ class StageData(NamedTuple):
   guide: Any = None
 
 
-def pixels_of(views, precrop_frac: Optional[float]) -> Pixels:
+# A pixel is foreground when a channel differs from the background by more.
+FOREGROUND_THRESHOLD = 0.05
+
+
+def pixels_of(views, precrop_frac: Optional[float],
+              background: Optional[float] = None) -> Pixels:
   """All pixels of `views` as flat training rays (numpy), with the arrays for
-  drawing from the centre crop (index_data) unless precrop_frac is None."""
+  drawing from the centre crop (index_data) unless precrop_frac is None, and
+  from the foreground where a `background` grey level (1.0: white) is given."""
   o, d = views.rays()
   n, h, w = views.images.shape[:3]
   times = views.ray_times()
   rays = Rays(o.reshape(-1, 3), d.reshape(-1, 3),
               None if times is None else np.ascontiguousarray(times.reshape(-1, 1)))
+  rgb = views.images.reshape(-1, 3)
   index = None if precrop_frac is None else index_data(n, h, w, precrop_frac)
-  return Pixels(rays, views.images.reshape(-1, 3), index)
+  if index is not None and background is not None:
+    index["fg_idx"] = foreground_pixels(rgb, background)
+  return Pixels(rays, rgb, index)
+
+
+def foreground_pixels(rgb: np.ndarray, background: float) -> np.ndarray:
+  """Flat indices [F] of the pixels rgb [R, 3] that are not the background
+  colour (every pixel when none is: a scene with no background left)."""
+  fg = np.flatnonzero(np.abs(np.asarray(rgb) - background).max(-1) > FOREGROUND_THRESHOLD)
+  return (fg if fg.size else np.arange(len(rgb))).astype(np.int32)
 
 
 def crop_pixels(height: int, width: int, frac: float) -> np.ndarray:
@@ -54,19 +70,28 @@ def index_data(num_views: int, height: int, width: int, precrop_frac: float) -> 
 
 
 def draw(k_idx, k_crop, step, num_rays: int, batch: int, index, precrop_steps: int,
-         one_image: bool = False):
+         one_image: bool = False, fg_steps: int = 0, fg_fraction: float = 0.0):
   """Indices [batch] into the flat training rays.
 
   Args:
-    k_idx, k_crop: PRNG keys (pixels, crop pixels).
+    k_idx, k_crop: PRNG keys (pixels, crop and foreground pixels).
     step: the training step (traced).
     num_rays: training rays in all (static).
     batch: rays per step.
     index: index_data's arrays (on device; unused, may be None, without
-      precrop_steps and one_image).
+      precrop_steps, one_image and fg_steps), with 'fg_idx' for fg_steps.
     precrop_steps: steps drawn from the centre crop only (0: none).
     one_image: draw the step's rays from one random view.
+    fg_steps, fg_fraction: for the first fg_steps steps, that fraction of the
+      batch comes from the foreground pixels (pixels_of's background), the
+      rest from all pixels.
   """
+  if fg_steps > 0:
+    idx = draw(k_idx, k_crop, step, num_rays, batch, index, precrop_steps, one_image)
+    fg = jnp.asarray(index["fg_idx"])
+    idx_fg = fg[jax.random.randint(jax.random.fold_in(k_crop, 2), (batch,), 0, fg.shape[0])]
+    take = (jnp.arange(batch) < round(fg_fraction * batch)) & (step < fg_steps)
+    return jnp.where(take, idx_fg, idx)
   if precrop_steps <= 0 and not one_image:
     return jax.random.randint(k_idx, (batch,), 0, num_rays)
   if one_image:

@@ -103,7 +103,7 @@ def loss_fn(params, data: batches.StageData, key, step, part=None, *, s):
   k_idx, k_crop, k_ren, k_extra, k_extra_s = jax.random.split(key, 5)
   px = data.pixels
   idx = batches.draw(k_idx, k_crop, step, px.rgb.shape[0], cfg.batch_rays, px.index,
-                     cfg.precrop_steps, cfg.one_image)
+                     cfg.precrop_steps, cfg.one_image, cfg.fg_steps, cfg.fg_fraction)
   keys = microbatch.part_of(jax.random.split(k_ren, cfg.batch_rays), part)
   idx = parallel.shard_batch(microbatch.part_of(idx, part), s.mesh)
   batch = Batch(px.rays.take(idx), px.rgb[idx], idx)
@@ -233,8 +233,12 @@ def train(ctx: base.StageContext):
   params = _initial_params(ctx)
   t0 = time.perf_counter()
   settings, guide_params = _stage_settings(ctx, cfg)
-  data = jax.device_put(terms.stage_data(ctx, cfg, batches.pixels_of(ds.train, cfg.precrop_frac),
-                                         active, guide_params))
+  registry.check(cfg.fg_steps <= 0 or ds.white_background,
+                 f"{name}.fg_steps={cfg.fg_steps}: drawing from the foreground needs a scene "
+                 "on a white background; set it to 0")
+  background = 1.0 if cfg.fg_steps > 0 else None
+  pixels = batches.pixels_of(ds.train, cfg.precrop_frac, background)
+  data = jax.device_put(terms.stage_data(ctx, cfg, pixels, active, guide_params))
   bank_s = time.perf_counter() - t0  # rendering Lo targets counts as training time
   cfg = loop.minus_seconds(cfg, bank_s)
   settings = dataclasses.replace(settings, cfg=cfg)
