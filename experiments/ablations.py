@@ -123,9 +123,9 @@ STUDIES = {
                   "with 200 steps of it Lo fogged spheres at seed 1."),
         scenes=suites.VALIDATION_360,
         variants=(
-            Variant("halo", "halo", (("lo.precrop_steps", 0),),
+            Variant("halo", "halo", (("lo.precrop_steps", 0), ("lo.fg_steps", 0)),
                     "Lo on whole images from its first step"),
-            Variant("lo_crop_100", "halo", (("lo.precrop_steps", 100),),
+            Variant("lo_crop_100", "halo", (("lo.precrop_steps", 100), ("lo.fg_steps", 0)),
                     "Lo on the centre crop for its first 100 steps"),
             Variant("lo_fg_200", "halo", (("lo.precrop_steps", 0), ("lo.fg_steps", 200),
                                           ("lo.fg_fraction", 0.5)),
