@@ -20,11 +20,16 @@ thousand steps a budget allows do not bring a Hi-NeRF trained from scratch
 back to where Lo already is; the paper's step counts train Hi from scratch.
 
 Two further settings of the paper's own mechanisms are HALO's here, each
-chosen on validation views (docs/results/ablation_fog.md, ablation_dnerf_hi.md);
-every HALO method (halo+freenerf, halo+unseen, halo_auto) applies them first:
+chosen on validation views (docs/validation.md; docs/results/ablation_fog.md,
+ablation_lo_start.md, ablation_dnerf_hi.md); every HALO method (halo+freenerf,
+halo+unseen, halo_auto) applies them first:
 - sphere: Lo-NeRF trains on whole images from its first step, without NeRF's
-  centre crop. During the crop Lo filled space with white fog that the
+  centre crop: during the crop Lo filled space with white fog that the
   training rays, seeing the white background through it, could not reject.
+  Instead, half of each batch of its first FG_STEPS steps comes from the
+  pixels that are not the background: without that, on a small or thin
+  object Lo could stay the empty field, which matches the white background
+  everywhere but on the object.
 - dynamic: Hi-NeRF, started as Lo's exact copy, trains at the paper's rate
   (5e-4 to 5e-5), not the CPU configs' fourfold one, which suits fields
   trained from scratch (the baseline keeps it).
@@ -36,6 +41,7 @@ EMPTY_WEIGHT = 0.1        # lambda of L_empty
 # The paper's per-protocol lambda (data.protocol): 0.01 on the one-side views.
 PROTOCOL_EMPTY_WEIGHT = {"lego_oneside": 0.01}
 COPY_LR = (5e-4, 5e-5)    # Hi-NeRF's rate after an exact copy of Lo, dynamic scenes
+FG_STEPS, FG_FRACTION = 200, 0.5  # Lo-NeRF's foreground start, sphere scenes
 DYNAMIC_SHARES = dict(lo=0.3, ray=0.0, hi=0.7)  # no ray stage to share the budget with
 
 
@@ -54,6 +60,7 @@ def sphere(c):
   c.hi.sampler.kind = "depth_guided"
   c.hi.empty.weight = _empty_weight(c)
   c.lo.precrop_steps = 0
+  c.lo.update(fg_steps=FG_STEPS, fg_fraction=FG_FRACTION)
   if c.budget_s:
     _copy_lo(c)
 
