@@ -60,7 +60,8 @@ def sphere(c):
   c.hi.sampler.kind = "depth_guided"
   c.hi.empty.weight = _empty_weight(c)
   c.lo.precrop_steps = 0
-  c.lo.update(fg_steps=FG_STEPS, fg_fraction=FG_FRACTION)
+  if c.data.white_background:  # photos of a room have no background to tell from
+    c.lo.update(fg_steps=FG_STEPS, fg_fraction=FG_FRACTION)
   if c.budget_s:
     _copy_lo(c)
 
