@@ -149,9 +149,9 @@ def case_read_only(wd):
   return out
 
 
-def case_full_disk(wd):
-  """A workdir on a disk with 200 kB free (a tmpfs; root only)."""
-  disk = _mounted(wd + "_full", "size=200k") if os.geteuid() == 0 else None
+def _on_small_disk(wd, size):
+  """A launch whose workdir is on a tmpfs of `size` (root only)."""
+  disk = _mounted(wd + "_disk", f"size={size}") if os.geteuid() == 0 else None
   if disk is None:
     return {"exit": -1, "traceback": False, "seconds": 0.0,
             "message": "(not run: mounting a small disk needs root)", "after_text": ""}
@@ -161,21 +161,17 @@ def case_full_disk(wd):
     _unmount(disk)
   out["after_text"] = "no stage marked finished"
   return out
+
+
+def case_full_disk(wd):
+  """A workdir on a disk with 200 kB free: a checkpoint's write fails."""
+  return _on_small_disk(wd, "200k")
 
 
 def case_small_disk(wd):
-  """A workdir on a 1 MiB disk: the built-in scene's images fill it (a tmpfs;
-  root only). Nothing may follow the one error line (imageio's writers)."""
-  disk = _mounted(wd + "_small", "size=1m") if os.geteuid() == 0 else None
-  if disk is None:
-    return {"exit": -1, "traceback": False, "seconds": 0.0,
-            "message": "(not run: mounting a small disk needs root)", "after_text": ""}
-  try:
-    out = run(main_cmd(os.path.join(disk, "run")))
-  finally:
-    _unmount(disk)
-  out["after_text"] = "no stage marked finished"
-  return out
+  """A workdir on a 1 MiB disk: the built-in scene's images fill it. Nothing
+  may follow the one error line (imageio's writers)."""
+  return _on_small_disk(wd, "1m")
 
 
 def case_collapsed(wd):
