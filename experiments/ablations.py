@@ -402,11 +402,12 @@ def default_rule(study: Study, recs, variant: str) -> str:
   """Whether `variant` may replace the reference as the default: 'passes',
   'fails: <scenes and their mean Δ>' or 'not measured: <scenes short of
   seeds>'."""
+  by_scene = {}
+  for r, ref in _pairs(study, recs, variant):
+    by_scene.setdefault(r["scene"], []).append(r["psnr"] - ref["psnr"])
   short, losses = [], []
   for scene in study.scenes:
-    ref = {r["seed"]: r["psnr"] for r in recs.get((scene.name, study.reference), [])}
-    deltas = [r["psnr"] - ref[r["seed"]] for r in recs.get((scene.name, variant), [])
-              if r["seed"] in ref]
+    deltas = by_scene.get(scene.name, [])
     if len(deltas) < MIN_SEEDS:
       short.append(scene.name)
     elif statistics.mean(deltas) < -MAX_LOSS_DB:
