@@ -234,6 +234,50 @@ STUDIES = {
                     "bfloat16 operands, float32 sums, in Lo's and Hi's layers"),
         ),
         reference="halo", seeds=2),
+    "lego_protocol": Study(
+        title="lego's CPU protocol, re-chosen on lego's unused training views",
+        question=("Whether the CPU protocol's settings that were first chosen on lego's test "
+                  "views (Lo's P.E. scale, Hi as Lo's exact copy, Hi's 32 samples, the "
+                  "window r = 0.3, Hi's and the baseline's 2e-3 rate) hold on views that are "
+                  "neither training nor test views, on both lego protocols."),
+        scenes=tuple(s for s in suites.VALIDATION_SCENES if s.name.startswith("lego_")),
+        variants=(
+            Variant("halo", "halo", note="the CPU config (L=5, s=1; exact copy; 32 samples; "
+                    "r = 0.3; Hi at 2e-3 -> 2e-4)"),
+            Variant("lo_scale_4", "halo", (("lo.encoding.scale", 4.0),),
+                    "Lo's P.E. at s = 4 (higher frequencies)"),
+            Variant("hi_fresh", "halo", (("hi.encoding.with_lo", False),
+                                         ("hi.init_from_lo", False)),
+                    "Hi trained from scratch, not as Lo's copy"),
+            Variant("hi_samples_64", "halo", (("hi.sampler.num_samples", 64),),
+                    "64 depth-guided samples (each step dearer)"),
+            Variant("window_0.15", "halo", (("hi.sampler.window", 0.15),), "r = 0.15"),
+            Variant("window_0.5", "halo", (("hi.sampler.window", 0.5),), "r = 0.5"),
+            Variant("hi_lr_5e-4", "halo", _hi_lr(5e-4), "Hi at 5e-4 -> 5e-5"),
+            Variant("nerf_tuned", "nerf_tuned", note="the baseline, as in the suite (2e-3)"),
+            Variant("nerf_tuned_lr_5e-4", "nerf_tuned", _hi_lr(5e-4),
+                    "the baseline at 5e-4 -> 5e-5"),
+        ),
+        reference="halo", seeds=2),
+    "knights_window": Study(
+        title="knights: the light-field window and the (u, v) frequency, on other grid views",
+        question=("Whether the knights CPU config's window floor (alpha_final 0.1) and its "
+                  "(u, v) frequency (uv_std 0.17), first chosen on the test views, hold on "
+                  "grid views between the training corners that are not test views."),
+        scenes=tuple(s for s in suites.VALIDATION_SCENES if s.name == "knights"),
+        variants=(
+            Variant("halo", "halo", note="alpha_final 0.1, uv_std 0.17 (the CPU config)"),
+            Variant("alpha_final_0.25", "halo", (("hi.joint.alpha_final", 0.25),),
+                    "the window's floor at 0.25"),
+            Variant("alpha_final_0.5", "halo", (("hi.joint.alpha_final", 0.5),),
+                    "the window's floor at 0.5 (the paper's full-size value)"),
+            Variant("uv_std_0.08", "halo", (("hi.joint.uv_std", 0.08),),
+                    "(u, v) frequency halved"),
+            Variant("uv_std_0.34", "halo", (("hi.joint.uv_std", 0.34),),
+                    "(u, v) frequency doubled"),
+            Variant("nerf_tuned", "nerf_tuned", note="the baseline, as in the suite"),
+        ),
+        reference="halo", seeds=2),
     "static_front": Study(
         title="Static scenes: what lifts HALO's front under the time budget",
         question=("Whether HALO reaches nerf_tuned's final PSNR sooner when Lo-NeRF gets less "
