@@ -251,7 +251,6 @@ STUDIES = {
                     "Hi trained from scratch, not as Lo's copy"),
             Variant("hi_samples_64", "halo", (("hi.sampler.num_samples", 64),),
                     "64 depth-guided samples (each step dearer)"),
-            Variant("window_0.15", "halo", (("hi.sampler.window", 0.15),), "r = 0.15"),
             Variant("window_0.5", "halo", (("hi.sampler.window", 0.5),), "r = 0.5"),
             Variant("hi_lr_5e-4", "halo", _hi_lr(5e-4), "Hi at 5e-4 -> 5e-5"),
             Variant("nerf_tuned", "nerf_tuned", note="the baseline, as in the suite (2e-3)"),

@@ -1,61 +1,126 @@
-"""Which version of the code made a result file.
+"""Which code made a result, judged by the numbers it makes: the fingerprint.
 
-A record keeps the commit its run started from, but result files are
-committed while a suite runs, so runs of one code can name different
-commits. The version is the newest commit at or before the record's that
-touched the code that trains, scores and times (TRAINING_CODE).
+A record names the commit its run started from and whether the tree was
+modified. The commit's code tree (provenance.code_tree: a hash of the
+training code's files) names the code exactly, but two trees can make the
+same numbers (a refactor, a comment). So a tree's fingerprint is measured:
+`experiments/same_numbers.py --record` trains every method step-capped on one
+scene of each kind and hashes, per method, every logged loss and held-out
+PSNR. Records of one method pool when their fingerprints agree, and a record
+is current when its fingerprint is the one the checkout's tree measured.
+Nobody lists neutral commits by hand: a change that moves no number measures
+the same fingerprint.
+
+results/fingerprints.json: {code tree: {"commit", "methods": {method:
+fingerprint}, "scenes", "steps", "views", "versions", "time_utc"}}.
+
+The fingerprint sees what step-capped runs compute, not how fast: a change
+of speed moves what a time-budgeted run trains without moving the
+fingerprint, so time-budgeted records carry their stages' step rates
+(benchmark.py) and the reports show them.
 """
-import functools
+import hashlib
+import json
 import os
-import subprocess
+import time
+
+from halo_jax import provenance
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-TRAINING_CODE = ("halo_jax", "configs", "experiments/benchmark.py", "experiments/suites.py")
-# Commits that touched TRAINING_CODE without moving any number a suite
-# records (full sha: why), so that records on either side of one stay one
-# version and are not rerun for it.
-NEUTRAL = {
-    "21b4f879a94ceaf17eac81c58dffc877fc9d8281":
-        "trig: NaN for angles past 2^30; the suites' angles stay below 2^13",
-    "af12b4feb3d78403dd8b729a0499255e1db51be3":
-        "encoding: the 12-bit split through trig.top12, bit for bit the same",
-    "69539d48adebc0b9513c1a3fbeb24d97bb338156":
-        "trig: the polynomial path jitted; inside jit it compiles to the same HLO",
-    "1214dfce1c98db7d25e5cb1f5b1ba0c4e612512c":
-        "benchmark: --only checked before any run; no run's settings change",
-    "3e71848fe09ad84634e10c07dfd1f0c71e962259":
-        "benchmark: plan searches with its compiled pattern; the same runs",
-    "e272729bcab79ce153632a6284ac315adb022ca8":
-        "benchmark: plan filters through experiments/selection.py; the same runs",
-    "52a29aecf8d81419544df8ec2a91b77f4780367b":
-        "benchmark: selection.select's message parts as two arguments; the same runs",
-}
+FILE = os.path.join(REPO, "results", "fingerprints.json")
+
+UNMEASURED = "unmeasured"   # the record's tree has no fingerprint for its method
+MODIFIED = "modified tree"  # the run's training code was not a commit's
 
 
-@functools.lru_cache(maxsize=None)
-def of_commit(commit: str, repo: str = REPO) -> str:
-  """sha7 of the newest commit at or before `commit` that touched
-  TRAINING_CODE and is not NEUTRAL; `commit`'s own sha7 where git cannot say
-  ('' stays '')."""
-  if not commit:
-    return ""
-  try:
-    out = subprocess.run(["git", "-C", repo, "log", "--format=%H", commit, "--", *TRAINING_CODE],
-                         capture_output=True, text=True, timeout=20, check=True).stdout.split()
-  except (OSError, subprocess.SubprocessError):
-    out = []
-  version = next((c for c in out if c not in NEUTRAL), "")
-  return version[:7] or commit[:7]
+def load(path: str = FILE) -> dict:
+  if not os.path.exists(path):
+    return {}
+  with open(path) as f:
+    return json.load(f)
 
 
-def of_records(records) -> str:
-  """The code versions of `records` (dicts with a 'provenance'), oldest
-  first as met, joined by ', '; '+' marks a version run from a modified tree."""
+def of_runs(runs: dict, method: str):
+  """The fingerprint of `method` in same_numbers' figures {"<scene>/<method>":
+  {...}}: 12 hex digits of a hash over its runs, or None where it has none."""
+  mine = {k: v for k, v in runs.items() if k.rsplit("/", 1)[-1] == method}
+  if not mine:
+    return None
+  return hashlib.sha256(json.dumps(mine, sort_keys=True).encode()).hexdigest()[:12]
+
+
+def record(commit: str, runs: dict, steps: int, views: int, path: str = FILE) -> str:
+  """Stores the fingerprints of every method in `runs` (same_numbers' figures
+  at `commit`) under the commit's code tree; returns a line saying so."""
+  tree = provenance.code_tree(commit)
+  table = load(path)
+  methods = sorted({k.rsplit("/", 1)[-1] for k in runs})
+  entry = table.setdefault(tree, {"commit": commit, "methods": {}})
+  entry["methods"].update({m: of_runs(runs, m) for m in methods})
+  entry.update(scenes=sorted({k.rsplit("/", 1)[0] for k in runs}), steps=steps, views=views,
+               versions=provenance.collect(measure_peak=False)["versions"],
+               time_utc=time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()))
+  with open(path, "w") as f:
+    json.dump(table, f, indent=1, sort_keys=True)
+    f.write("\n")
+  return f"recorded {len(methods)} fingerprints for code tree {tree} ({commit[:7]}) in {path}"
+
+
+def modified(rec: dict) -> bool:
+  """Whether the record's run used training code that no commit holds (an
+  old record, without code_dirty, counts any modification)."""
+  git = rec.get("provenance", {}).get("git", {})
+  return bool(git.get("code_dirty") or (git.get("dirty") and "code_dirty" not in git))
+
+
+def tree_of(rec: dict):
+  """The code tree of a record's commit: stored, or computed from the commit
+  (None where git does not know it)."""
+  git = rec.get("provenance", {}).get("git", {})
+  return git.get("code_tree") or (provenance.code_tree(git["commit"]) if git.get("commit")
+                                  else None)
+
+
+def of_record(rec: dict, table: dict) -> str:
+  """The record's fingerprint for its method, or MODIFIED / UNMEASURED."""
+  if modified(rec):
+    return MODIFIED
+  tree = tree_of(rec)
+  return ((table.get(tree) or {}).get("methods", {}).get(rec.get("method")) if tree else None
+          ) or UNMEASURED
+
+
+def current(method: str, table: dict):
+  """The checkout's fingerprint for `method` (None where its tree is
+  unmeasured or modified)."""
+  state = provenance.git_state()
+  if state["code_dirty"] or not state["code_tree"]:
+    return None
+  return (table.get(state["code_tree"]) or {}).get("methods", {}).get(method)
+
+
+def choose(records, table):
+  """(fingerprint, chosen records, set-aside records) of one method's records:
+  the measured fingerprint with the most records (the newest run breaks a
+  tie); records of other fingerprints, unmeasured trees or modified trees are
+  set aside."""
+  by = {}
+  for r in records:
+    fp = of_record(r, table)
+    if fp not in (MODIFIED, UNMEASURED):
+      by.setdefault(fp, []).append(r)
+  if not by:
+    return None, [], list(records)
+  newest = lambda rs: max(r.get("provenance", {}).get("time_utc", "") for r in rs)  # noqa: E731
+  fp = max(by, key=lambda k: (len(by[k]), newest(by[k])))
+  return fp, by[fp], [r for r in records if r not in by[fp]]
+
+
+def of_records(records, table) -> str:
+  """The fingerprints of `records`, as met, joined by ', '."""
   seen = []
   for r in records:
-    git = r.get("provenance", {}).get("git", {})
-    v = of_commit(git.get("commit") or "") or "?"
-    v += "+" if git.get("dirty") else ""
-    if v not in seen:
-      seen.append(v)
+    fp = of_record(r, table)
+    if fp not in seen:
+      seen.append(fp)
   return ", ".join(seen)

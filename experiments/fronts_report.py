@@ -191,8 +191,9 @@ def fronts_rows(key, scenes, method="halo"):
   """The README's table for a suite with fronts: per scene, `method` /
   nerf_tuned held-out PSNR (every view, mean over the seeds with a front) at
   each saved time and at the end, then `method`'s seconds to nerf_tuned's
-  end and the ratio to nerf_tuned's own (reach_ratio), and the code version
-  (code_version) of the records with a front. Returns its lines."""
+  end and the ratio to nerf_tuned's own (reach_ratio), and the code
+  fingerprints (code_version) of each method's records with a front. Returns
+  its lines."""
   suite, mode = key
   with_front = paired_fronts(scenes, method)
   times = sorted({p["at_s"] for by in with_front.values() for rs in by.values()
@@ -207,8 +208,9 @@ def fronts_rows(key, scenes, method="halo"):
       cells.append(" / ".join(f"{np.mean(v):.2f}" if v else "-" for v in means))
     reach = reach_ratio(by, method)
     cells.append("not reached" if reach is None else f"{reach[0]:.0f} ({reach[1]:.2f})")
-    cells.append(code_version.of_records(r for m in (method, BASELINE) for r in by[m]
-                                         if r.get("front")))
+    table = code_version.load()
+    cells.append(" / ".join(code_version.of_records([r for r in by[m] if r.get("front")], table)
+                            for m in (method, BASELINE)))
     lines.append(f"| [{suite}/{mode}](docs/results/{suite}_{mode}.md) | {scene} | "
                  f"{len(by[method])} / {len(by[BASELINE])} | " + " | ".join(cells) + " |")
   return lines

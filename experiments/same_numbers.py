@@ -10,6 +10,14 @@ within --tolerance_db.
   ... change the code ...
   python experiments/same_numbers.py --out=/tmp/after.json --compare=/tmp/before.json
 
+The same runs fingerprint the code (experiments/code_version.py): --record
+stores each method's fingerprint, the hash of its runs' figures, in
+results/fingerprints.json under the code tree of the checkout, and
+--commit=SHA measures an earlier commit in a temporary git worktree:
+
+  python experiments/same_numbers.py --out=/tmp/head.json --record
+  python experiments/same_numbers.py --out=/tmp/old.json --record --commit=3dc7483
+
 Each run trains every stage of its method for --steps steps (no time budget,
 so the machine's speed does not change what is trained), logs every step and
 scores the final stage on the first --views held-out views. Scenes whose data
@@ -20,6 +28,8 @@ import copy
 import dataclasses
 import json
 import os
+import shutil
+import subprocess
 import sys
 import tempfile
 
@@ -27,7 +37,12 @@ from absl import app, flags
 
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
 from experiments import suites  # noqa: E402
-from halo_jax import datasets, defaults, pipeline, runs  # noqa: E402
+from halo_jax import datasets, defaults, pipeline, provenance, runs  # noqa: E402
+
+try:  # a worktree of an older commit runs this copy, without code_version's fingerprints
+  from experiments import code_version  # noqa: E402
+except ImportError:
+  code_version = None
 
 FLAGS = flags.FLAGS
 flags.DEFINE_string("out", None, "JSON file the figures are written to (after each run; "
@@ -39,19 +54,26 @@ flags.DEFINE_string("scenes", "default,lego_8view,dnerf_hook,fern_4view,knights"
                     "scenes: 'default' (the built-in job) and names of the CPU suite's scenes")
 flags.DEFINE_string("shard", "0/1", "i/n: run every n-th of the runs, starting at the i-th")
 flags.DEFINE_float("tolerance_db", 0.0, "largest PSNR difference reported as equal")
+flags.DEFINE_string("methods", "", "comma-separated methods to run ('': every method of each scene)")
+flags.DEFINE_bool("record", False, "store each method's fingerprint in results/fingerprints.json "
+                  "(refused from a checkout whose training code is modified)")
+flags.DEFINE_string("commit", "", "measure this commit instead of the checkout: a temporary git "
+                    "worktree of it runs this script")
 
 
 def scene_list():
   """[(name, config spec, data folder, methods)] for the --scenes flag."""
   by_name = {s.name: s for s in suites.CPU.scenes}
   out = []
+  wanted = [m for m in FLAGS.methods.split(",") if m]
   for name in FLAGS.scenes.split(","):
     if name == "default":
-      out.append((name, "configs/default.py", "", suites.ALL_METHODS))
+      out.append((name, "configs/default.py", "", tuple(suites.ALL_METHODS)))
     else:
       s = by_name[name]
-      out.append((name, s.config, s.needs, s.methods))
-  return out
+      out.append((name, s.config, s.needs, tuple(s.methods)))
+  return [(n, spec, needs, tuple(m for m in ms if not wanted or m in wanted))
+          for n, spec, needs, ms in out]
 
 
 def step_capped(config, steps):
@@ -111,8 +133,45 @@ def differences(before, after, tol):
   return lines
 
 
+def measure_commit(commit: str) -> dict:
+  """Runs this script's runs at `commit` in a temporary worktree (this copy of
+  the script, that commit's library) and returns its --out figures."""
+  repo = code_version.REPO
+  with tempfile.TemporaryDirectory(prefix="same_numbers_wt_") as tmp:
+    tree = os.path.join(tmp, "tree")
+    subprocess.run(["git", "-C", repo, "worktree", "add", "--detach", tree, commit], check=True,
+                   capture_output=True)
+    try:
+      shutil.copy(__file__, os.path.join(tree, "experiments", "same_numbers.py"))
+      out = os.path.join(tmp, "figures.json")
+      if os.path.exists(FLAGS.out):
+        shutil.copy(FLAGS.out, out)
+      args = [f"--out={out}", f"--steps={FLAGS.steps}", f"--views={FLAGS.views}",
+              f"--scenes={FLAGS.scenes}", f"--methods={FLAGS.methods}", f"--shard={FLAGS.shard}"]
+      subprocess.run([sys.executable, os.path.join(tree, "experiments", "same_numbers.py"), *args],
+                     check=True, cwd=tree)
+      shutil.copy(out, FLAGS.out)
+      with open(out) as f:
+        return json.load(f)
+    finally:
+      subprocess.run(["git", "-C", repo, "worktree", "remove", "--force", tree],
+                     capture_output=True)
+
+
 def main(argv):
   del argv
+  if FLAGS.commit:
+    sha = subprocess.run(["git", "-C", code_version.REPO, "rev-parse", FLAGS.commit],
+                         capture_output=True, text=True, check=True).stdout.strip()
+    results = measure_commit(sha)
+    if FLAGS.record:
+      print(code_version.record(sha, results, FLAGS.steps, FLAGS.views))
+    return
+  if FLAGS.record:
+    state = provenance.git_state()
+    if state["code_dirty"] or not state["code_tree"]:
+      sys.exit("error: --record needs a checkout whose training code "
+               f"({', '.join(provenance.TRAINING_CODE)}) is committed and unmodified")
   data_root = os.environ.get("HALO_DATA", defaults.data_root(""))
   shard, num_shards = (int(x) for x in FLAGS.shard.split("/"))
   todo = [(n, spec, m) for n, spec, needs, methods in scene_list() for m in methods
@@ -141,6 +200,8 @@ def main(argv):
     print("\n".join(lines) if lines else f"same numbers on all {len(results)} runs")
     if lines:
       sys.exit(1)
+  if FLAGS.record:
+    print(code_version.record(state["commit"], results, FLAGS.steps, FLAGS.views))
 
 
 if __name__ == "__main__":

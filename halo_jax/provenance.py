@@ -5,6 +5,7 @@ machine's measured speed and the code's commit cannot be compared with
 another. `collect()` gathers what every info.json and results.json records.
 """
 import functools
+import hashlib
 import os
 import platform
 import subprocess
@@ -44,20 +45,43 @@ def cpu_count() -> int:
     return os.cpu_count() or 1
 
 
-def git_state(repo: str = _REPO) -> dict:
-  """{'commit': sha or None, 'dirty': bool or None} of the checkout holding the code.
+# The files whose contents decide what a run trains, scores and times: two
+# checkouts that agree on them make the same numbers, whatever else differs.
+TRAINING_CODE = ("halo_jax", "configs", "experiments/benchmark.py", "experiments/suites.py")
 
-  None where the code is not in a git checkout (an installed wheel).
-  """
-  def git(*args):
-    return subprocess.run(["git", "-C", repo, *args], capture_output=True, text=True,
-                          timeout=10, check=True).stdout.strip()
+
+def _git(repo, *args) -> str:
+  return subprocess.run(["git", "-C", repo, *args], capture_output=True, text=True,
+                        timeout=20, check=True).stdout.strip()
+
+
+@functools.lru_cache(maxsize=None)
+def code_tree(commit: str, repo: str = _REPO):
+  """12 hex digits naming the contents of TRAINING_CODE at `commit` (a hash
+  of their git blob ids), or None where git cannot say. Commits that touched
+  none of those files share it."""
   try:
-    commit = git("rev-parse", "HEAD")
-    dirty = bool(git("status", "--porcelain", "--untracked-files=no"))
+    listing = _git(repo, "ls-tree", "-r", commit, "--", *TRAINING_CODE)
   except (OSError, subprocess.SubprocessError):
-    return {"commit": None, "dirty": None}
-  return {"commit": commit, "dirty": dirty}
+    return None
+  return hashlib.sha1(listing.encode()).hexdigest()[:12] if listing else None
+
+
+def git_state(repo: str = _REPO) -> dict:
+  """{'commit', 'dirty', 'code_tree', 'code_dirty'} of the checkout holding the code.
+
+  dirty: any tracked file modified; code_dirty: a file of TRAINING_CODE
+  modified or added, so that `code_tree` (the commit's) does not describe the
+  code that ran. None where the code is not in a git checkout (an installed wheel).
+  """
+  try:
+    commit = _git(repo, "rev-parse", "HEAD")
+    dirty = bool(_git(repo, "status", "--porcelain", "--untracked-files=no"))
+    code_dirty = bool(_git(repo, "status", "--porcelain", "--", *TRAINING_CODE))
+  except (OSError, subprocess.SubprocessError):
+    return {"commit": None, "dirty": None, "code_tree": None, "code_dirty": None}
+  return {"commit": commit, "dirty": dirty, "code_tree": code_tree(commit, repo),
+          "code_dirty": code_dirty}
 
 
 @functools.lru_cache(maxsize=None)

@@ -100,6 +100,9 @@ def run_method(config, workdir, dataset=None) -> dict:
           "num_views": last["num_views"], "per_view": rounded,
           "wall_s": sum(i["wall_s"] for i in infos.values()),
           "stages": {n: {"wall_s": i["wall_s"], "step": i["step"],
+                         # what a time-budgeted run's step count rests on: a change of
+                         # speed shows here, not in the code's fingerprint
+                         "steps_per_s": round(i["step"] / i["wall_s"], 3) if i["wall_s"] else None,
                          "skipped": i.get("skipped", 0),
                          **{k: i[k] for k in ("past_time_cap", "target_s", "target_rays")
                             if k in i},
@@ -109,7 +112,9 @@ def run_method(config, workdir, dataset=None) -> dict:
           **({"collapsed": collapsed} if collapsed else {}),
           "curve": read_curve(workdir),
           **_frequency_choice(workdir),
-          "provenance": provenance.collect()}
+          "provenance": provenance.collect(),
+          # every field the run read, as resolved: the record stands without its config file
+          "resolved_config": json.loads(config.to_json_best_effort())}
 
 
 def learned_cell(record: dict) -> str:

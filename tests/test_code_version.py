@@ -1,9 +1,10 @@
-"""experiments/code_version.py: the code version a result file names."""
+"""experiments/code_version.py: records pool by the fingerprint their code measures."""
 import subprocess
 
 import pytest
 
 from experiments import code_version
+from halo_jax import provenance
 
 
 def _git(*args):
@@ -11,49 +12,67 @@ def _git(*args):
                         check=True).stdout.strip()
 
 
-def _record(commit, dirty=False):
-  return {"provenance": {"git": {"commit": commit, "dirty": dirty}}}
-
-
-def test_unknown_commits_name_themselves_and_versions_are_listed_once():
-  fake = "0123456789abcdef0123456789abcdef01234567"
-  recs = [_record(fake), _record(fake), _record(fake, dirty=True), _record(None)]
-  assert code_version.of_records(recs) == "0123456, 0123456+, ?"
-
-
-def test_a_commit_maps_to_the_newest_code_change_at_or_before_it():
+def _history():
   try:
     head = _git("rev-parse", "HEAD")
     shallow = _git("rev-parse", "--is-shallow-repository") == "true"
   except (OSError, subprocess.CalledProcessError):
     pytest.skip("not a git checkout")
   if shallow:
-    pytest.skip("a shallow clone may not hold the commit that changed the code")
-  version = code_version.of_commit(head)
-  full = _git("rev-parse", version)
-  # an ancestor of (or equal to) HEAD, and one that touched the training code
-  assert subprocess.run(["git", "-C", code_version.REPO, "merge-base", "--is-ancestor", full,
-                         head]).returncode == 0
-  assert _git("diff", "--name-only", f"{full}~1", full, "--", *code_version.TRAINING_CODE)
-  # and every commit after it that touched the training code is a neutral one
-  later = _git("log", "--format=%H", f"{full}..{head}", "--", *code_version.TRAINING_CODE)
-  assert all(c in code_version.NEUTRAL for c in later.split())
+    pytest.skip("a shallow clone has no history to compare")
+  return head
 
 
-def test_neutral_commits_do_not_start_a_version(monkeypatch):
-  try:
-    head = _git("rev-parse", "HEAD")
-    if _git("rev-parse", "--is-shallow-repository") == "true":
-      pytest.skip("a shallow clone may not hold the commits that changed the code")
-  except (OSError, subprocess.CalledProcessError):
-    pytest.skip("not a git checkout")
-  version = _git("rev-parse", code_version.of_commit(head))
-  code_version.of_commit.cache_clear()
-  monkeypatch.setattr(code_version, "NEUTRAL", {**code_version.NEUTRAL, version: "test"})
-  before = code_version.of_commit(head)
-  code_version.of_commit.cache_clear()
-  assert before != version[:7]
-  # the version before it: the newest code change before it that is not neutral
-  earlier = _git("log", "--format=%H", f"{version}~1", "--", *code_version.TRAINING_CODE)
-  assert before == next(c for c in earlier.split() if c not in code_version.NEUTRAL)[:7]
+FIGURES = {"default/halo": {"losses": {"lo": [[0, 0.25], [1, 0.125]]}, "psnr": [12.5]},
+           "knights/halo": {"losses": {"hi": [[0, 0.5]]}, "psnr": [20.0]},
+           "default/nerf_tuned": {"losses": {"hi": [[0, 0.3]]}, "psnr": [11.0]}}
 
+
+def test_a_fingerprint_moves_with_any_figure_of_its_method_and_no_other():
+  fp = code_version.of_runs(FIGURES, "halo")
+  assert len(fp) == 12
+  moved = {**FIGURES, "knights/halo": {"losses": {"hi": [[0, 0.5000001]]}, "psnr": [20.0]}}
+  assert code_version.of_runs(moved, "halo") != fp
+  other = {**FIGURES, "default/nerf_tuned": {"losses": {"hi": [[0, 0.31]]}, "psnr": [11.0]}}
+  assert code_version.of_runs(other, "halo") == fp
+  assert code_version.of_runs(FIGURES, "freenerf") is None
+
+
+def test_records_pool_by_fingerprint_and_the_rest_is_set_aside(tmp_path):
+  head = _history()
+  table_path = str(tmp_path / "fingerprints.json")
+  code_version.record(head, FIGURES, steps=3, views=1, path=table_path)
+  table = code_version.load(table_path)
+  tree = provenance.code_tree(head)
+  assert table[tree]["methods"]["halo"] == code_version.of_runs(FIGURES, "halo")
+
+  def rec(method, **git):
+    return {"method": method, "psnr": 20.0,
+            "provenance": {"git": {"commit": head, "dirty": False, **git}}}
+  ok = [rec("halo"), rec("halo", code_tree=tree)]
+  modified = rec("halo", dirty=True, code_dirty=True)
+  old_modified = rec("halo", dirty=True)          # an old record: no code_dirty field
+  docs_only = rec("halo", dirty=True, code_dirty=False)
+  unmeasured = rec("halo", code_tree="0" * 12)
+  assert code_version.of_record(docs_only, table) == table[tree]["methods"]["halo"]
+  assert code_version.of_record(modified, table) == code_version.MODIFIED
+  assert code_version.of_record(old_modified, table) == code_version.MODIFIED
+  assert code_version.of_record(unmeasured, table) == code_version.UNMEASURED
+  assert code_version.of_record(rec("freenerf"), table) == code_version.UNMEASURED
+  fp, chosen, aside = code_version.choose(ok + [docs_only, modified, old_modified, unmeasured],
+                                          table)
+  assert fp == table[tree]["methods"]["halo"]
+  assert len(chosen) == 3 and len(aside) == 3
+  assert code_version.choose([modified], table) == (None, [], [modified])
+
+
+def test_a_code_tree_changes_exactly_when_the_training_code_does():
+  head = _history()
+  touched = _git("log", "-n", "1", "--format=%H", head, "--", "halo_jax").strip()
+  untouched = [c for c in _git("log", "-n", "40", "--format=%H", head).split()
+               if not _git("diff", "--name-only", f"{c}~1", c, "--",
+                           *provenance.TRAINING_CODE)]
+  assert provenance.code_tree(touched) != provenance.code_tree(f"{touched}~1")
+  if untouched:
+    c = untouched[0]
+    assert provenance.code_tree(c) == provenance.code_tree(f"{c}~1")

@@ -56,11 +56,50 @@ def test_tables_and_readme_block(tmp_path):
   assert text.startswith("top\n") and text.endswith("bottom\n")
   # the headline is computed from the files: 23 against the mean of 20 and 22
   assert ("halo against nerf_tuned on the 1 scenes both ran (1-2 seeds each): +2.00 dB on "
-          "average, ahead on 1 of 1.") in text
+          "average (each scene weighs the same), ahead on 1 of 1.") in text
   _write(root, "halo", 0, _record(20.5, [[1, 18.0]]), scene="s2")
   _write(root, "nerf_tuned", 0, _record(21.0, [[1, 18.0]]), scene="s2")
   line = report.headline(report.load(root)[("cpu", "time")])
-  assert "+0.75 dB on average, ahead on 1 of 2; behind or level on s2 (-0.50)." in line
+  assert ("+0.75 dB on average (each scene weighs the same), ahead on 1 of 2; behind or level "
+          "on s2 (-0.50).") in line
+
+
+def test_a_suite_pools_one_fingerprint_per_method_and_lists_the_rest(tmp_path, monkeypatch):
+  root, docs = str(tmp_path / "results"), str(tmp_path / "docs")
+  os.makedirs(docs)
+  trees = {"new": "a" * 12, "old": "b" * 12, "unmeasured": "c" * 12}
+
+  def rec(psnr, tree, dirty=False):
+    r = _record(psnr, [[1, psnr]])
+    r["provenance"]["git"].update(code_tree=trees[tree], code_dirty=dirty, dirty=dirty)
+    return r
+  for seed, (p, tree) in enumerate([(23.0, "new"), (24.0, "new"), (30.0, "old")]):
+    r = rec(p, tree)
+    r["method"] = "halo"
+    _write(root, "halo", seed, r)
+  for seed, (p, tree, dirty) in enumerate([(21.0, "new", False), (40.0, "unmeasured", False),
+                                           (50.0, "new", True)]):
+    r = rec(p, tree, dirty)
+    r.update(method="nerf_tuned", seed=seed)
+    _write(root, "nerf_tuned", seed, r)
+  table = {trees["new"]: {"methods": {"halo": "fp_halo_new", "nerf_tuned": "fp_nt"}},
+           trees["old"]: {"methods": {"halo": "fp_halo_old"}}}
+  monkeypatch.setattr(report.code_version, "current",
+                      lambda m, t: {"halo": "fp_halo_new", "nerf_tuned": "fp_other"}[m])
+  scenes, versions = report.pool(report.load(root)[("cpu", "time")], table)
+  assert [r["psnr"] for r in scenes["s1"]["halo"]] == [23.0, 24.0]
+  assert [r["psnr"] for r in scenes["s1"]["nerf_tuned"]] == [21.0]
+  assert versions["halo"]["fingerprint"] == "fp_halo_new" and versions["halo"]["current"]
+  assert not versions["nerf_tuned"]["current"]
+  why = sorted(w for _, _, w in versions["nerf_tuned"]["aside"])
+  assert why == ["modified tree", "unmeasured"]
+  line = report.headline(scenes, versions=versions)
+  assert "+2.50 dB on average" in line  # 23.5 - 21: the set-aside 30, 40 and 50 are not pooled
+  assert "halo fp_halo_new (2 runs, current code, 1 set aside)" in line
+  assert "nerf_tuned fp_nt (1 runs, not the current code, 2 set aside)" in line
+  page = "\n".join(report.version_lines(versions))
+  assert "| halo | fp_halo_new | 2 | yes | 1 (fp_halo_old) |" in page
+  assert "| s1 | nerf_tuned | 1 | abcdef0 | unmeasured | 40.00 |" in page
 
 
 def test_summary_table_names_scene_changes(tmp_path):
@@ -205,9 +244,9 @@ def test_front_table_gives_seconds_to_the_baselines_end(tmp_path):
   head = next(i for i, l in enumerate(lines) if l.startswith("| suite | scene | seeds |"))
   assert lines[head] == ("| suite | scene | seeds | 15 s | 30 s | 60 s | end | "
                          "halo: s to nerf_tuned's end (× its time) | code |")
-  # the records' commit is not in this repository: the version names it
+  # the records' commit is not in this repository: no fingerprint is known for it
   assert lines[head + 2].endswith("| s1 | 2 / 2 | 12.00 / 10.00 | 21.05 / 15.50 | "
-                                  "22.00 / 18.50 | 23.00 / 21.00 | 30 (0.12) | abcdef0 |")
+                                  "22.00 / 18.50 | 23.00 / 21.00 | 30 (0.12) | unmeasured / unmeasured |")
   assert not any("| s2 |" in l for l in lines)  # no front: not a fronts row
   assert "on 1 of the 1 scenes where both have fronts" in block
   assert lines[-1].startswith("| [cpu/steps](docs/results/cpu_steps.md) | s3 |  | 19.00 |")
