@@ -37,7 +37,7 @@ from absl import app, flags, logging
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 if __package__ in (None, ""):
   sys.path.insert(0, REPO)
-from experiments import benchmark, fronts_report, report_common, run_file, selection, suites  # pylint: disable=g-import-not-at-top
+from experiments import benchmark, code_version, fronts_report, report_common, run_file, selection, suites  # pylint: disable=g-import-not-at-top
 from halo_jax import runs  # pylint: disable=g-import-not-at-top
 
 FLAGS = flags.FLAGS
@@ -567,7 +567,24 @@ def report(study_name: str, study: Study, results: str) -> str:
                     for rs in recs.values() for r in rs})
   if commits:
     lines += ["", f"Commits: {', '.join(commits)}."]
+  lines += _fingerprint_lines(study, recs)
   return "\n".join(lines) + "\n"
+
+
+def _fingerprint_lines(study: Study, recs) -> list:
+  """Per variant, the code fingerprints of its method that its runs measure
+  (experiments/code_version.py): a variant whose runs span two fingerprints,
+  or whose tree was modified or never measured, says so. A study's overrides
+  are not part of a fingerprint, so a change of a default the study sets
+  itself can mark its runs as different code without moving them."""
+  table = code_version.load()
+  rows = []
+  for v in study.variants:
+    rs = [r for (_, name), rr in sorted(recs.items()) if name == v.name for r in rr]
+    if rs:
+      rows.append(f"`{v.name}` {code_version.of_records(rs, table)}")
+  return ["", "Code fingerprints (per variant, of its method): " + "; ".join(rows) + "."] if rows \
+      else []
 
 
 def define_flags():

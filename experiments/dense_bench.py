@@ -31,11 +31,16 @@ import jax
 import jax.numpy as jnp
 
 FLAGS = flags.FLAGS
-flags.DEFINE_integer("points", 393216, "rows of every product (rays x samples)")
-flags.DEFINE_integer("width", 256, "layer width")
-flags.DEFINE_integer("peak_n", 8192, "n of the n x n x n matmul that measures the peak")
-flags.DEFINE_integer("repeats", 20, "timed calls per figure")
-flags.DEFINE_string("out", "", "JSON file for the figures ('' : print only)")
+
+
+def define_flags():
+  """Defined on launch, not on import (the tests import this module beside others)."""
+  flags.DEFINE_integer("points", 393216, "rows of every product (rays x samples)")
+  flags.DEFINE_integer("width", 256, "layer width")
+  flags.DEFINE_integer("peak_n", 8192, "n of the n x n x n matmul that measures the peak")
+  flags.DEFINE_integer("repeats", 20, "timed calls per figure")
+  flags.DEFINE_string("out", "", "JSON file for the figures ('' : print only)")
+
 
 IN_FEATURES = 63   # 3 + 3 x 2 x 10: P.E. with L = 10
 DEPTH = 8
@@ -157,4 +162,5 @@ def main(argv):
 
 
 if __name__ == "__main__":
+  define_flags()
   app.run(main)

@@ -75,7 +75,8 @@ def run_all(path):
   return data
 
 
-def report(data, path):
+def report(data, path, docs=None):
+  docs = docs or FLAGS.docs
   rows = {(r["scene"], r["scheme"]): r for r in data["runs"]}
   scenes = sorted({s for s, _ in rows})
   if not scenes:
@@ -109,8 +110,8 @@ def report(data, path):
                     for r in data["runs"]})
   lines += ["", f"Commits: {', '.join(commits)}.", ""]
   text = "\n".join(lines)
-  os.makedirs(FLAGS.docs, exist_ok=True)
-  with open(os.path.join(FLAGS.docs, "dnerf_hi_init.md"), "w") as f:
+  os.makedirs(docs, exist_ok=True)
+  with open(os.path.join(docs, "dnerf_hi_init.md"), "w") as f:
     f.write(text)
   return text
 

@@ -199,7 +199,7 @@ def fronts_rows(key, scenes, method="halo"):
   times = sorted({p["at_s"] for by in with_front.values() for rs in by.values()
                   for r in rs for p in r["front"] if not p.get("final")})
   head = (["suite", "scene", "seeds"] + [f"{t:g} s" for t in times]
-          + ["end", f"{method}: s to nerf_tuned's end (× its time)", "code"])
+          + ["end", f"{method}: s to nerf_tuned's end (× its time)", "code fingerprints"])
   lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
   for scene, by in with_front.items():
     cells = []

@@ -242,19 +242,25 @@ def curve_drop(records) -> float:
 
 FAILURE_DROP_DB = 0.5  # a curve that falls this far from its peak shows the failure
 
+# The margins over NeRF the project's issues stated, per scene kind (dB):
+# lego's +1.5 (issue 2, the paper's 8-view setting), D-NeRF's +0.5 (issue 5),
+# the light field's +1 (issue 7). A kind with no stated number is not judged.
+GOALS_DB = {"blender": 1.5, "dnerf": 0.5, "stanford_lf": 1.0}
+
 
 def claims(scenes, method="halo"):
-  """The issue's goals, checked on these results: `method` against each
+  """The issues' goals, checked on these results: `method` against each NeRF
   baseline per scene kind (the mean over the kind's scenes of the mean over
-  seeds), with the bar raised to 1 dB where the baseline's curve shows the
-  few-shot failure on a scene; and per scene, where it trails FreeNeRF."""
+  seeds, each scene weighing the same) against the margin stated for the
+  kind (GOALS_DB), and whether the baseline's curve shows the few-shot
+  failure; then per scene, where it trails a baseline, FreeNeRF included."""
   kinds = collections.defaultdict(list)
   for scene, by in scenes.items():
     if method in by:
       kinds[scene_kind(by[method][0]["config"])].append(scene)
   mean = lambda rs: float(np.mean([r["psnr"] for r in rs]))  # pylint: disable=unnecessary-lambda-assignment
   lines = [f"| scene kind | scenes | baseline | {method} - baseline (dB) | scenes where the "
-           f"baseline's curve falls ≥ {FAILURE_DROP_DB} dB | bar (dB) | met |",
+           f"baseline's curve falls ≥ {FAILURE_DROP_DB} dB | stated goal (dB) | met |",
            "|---|---|---|---|---|---|---|"]
   for kind in sorted(kinds):
     for base in ("nerf_paper", "nerf_tuned"):
@@ -263,10 +269,11 @@ def claims(scenes, method="halo"):
         continue
       gap = np.mean([mean(scenes[s][method]) - mean(scenes[s][base]) for s in both])
       failing = [s for s in both if curve_drop(scenes[s][base]) >= FAILURE_DROP_DB]
-      bar = 1.0 if failing else 0.0
+      goal = GOALS_DB.get(kind)
+      met = "no goal stated" if goal is None else "yes" if gap >= goal else "**no**"
       lines.append(f"| {kind} | {', '.join(both)} | {base} | {gap:+.2f} | "
-                   f"{', '.join(failing) or 'none'} | {bar:.0f} | "
-                   f"{'yes' if gap > bar else '**no**'} |")
+                   f"{', '.join(failing) or 'none'} | "
+                   f"{'-' if goal is None else f'+{goal:g}'} | {met} |")
   rows = []
   for scene in sorted(scenes):
     by = scenes[scene]
@@ -383,10 +390,11 @@ def write_suite(suite, mode, scenes, docs, versions=None):
     by_kind, per_scene = claims(scenes)
     out += ["## The goals, checked", "",
             "HALO against each NeRF baseline per scene kind (the mean over the kind's scenes "
-            "of the mean over seeds). The bar is 1 dB where the baseline shows the few-shot "
-            f"failure on a scene of that kind (its held-out curve ends ≥ {FAILURE_DROP_DB} dB "
-            "below its peak), else 0. Then per scene, where HALO trails a baseline, "
-            "FreeNeRF included.", "", by_kind, "", per_scene, ""]
+            "of the mean over seeds, each scene weighing the same), against the margin the "
+            "project's issues stated for the kind (`report.GOALS_DB`; met only at or above "
+            "it). The failure column says where the baseline's held-out curve ends "
+            f"≥ {FAILURE_DROP_DB} dB below its peak. Then per scene, where HALO trails a "
+            "baseline, FreeNeRF included.", "", by_kind, "", per_scene, ""]
   stages = stage_table(scenes)
   if stages:
     out += ["## By stage", "",
@@ -435,12 +443,17 @@ def headline(scenes, method="halo", versions=None) -> str:
            - np.mean([r["psnr"] for r in scenes[s][BASELINE]]) for s in both}
   seeds = sorted({len(scenes[s][m]) for s in both for m in (method, BASELINE)})
   behind = ", ".join(f"{s} ({d:+.2f})" for s, d in sorted(delta.items()) if d <= 0)
+  kinds = collections.defaultdict(list)
+  for s in both:
+    kinds[scene_kind(scenes[s][method][0]["config"])].append(delta[s])
+  per_kind = ", ".join(f"{k} {np.mean(v):+.2f} ({len(v)})" for k, v in sorted(kinds.items()))
   return (f"{method} against {BASELINE} on the {len(both)} scenes both ran "
           f"({seeds[0] if len(seeds) == 1 else f'{seeds[0]}-{seeds[-1]}'} "
           f"seed{'' if seeds == [1] else 's'} "
           f"each): {np.mean(list(delta.values())):+.2f} dB on average (each scene weighs "
           f"the same), ahead on {sum(d > 0 for d in delta.values())} of {len(both)}"
           + (f"; behind or level on {behind}." if behind else ".")
+          + f" Per scene kind (scenes): {per_kind}."
           + (" " + _fingerprint_note(versions, (method, BASELINE)) if versions else ""))
 
 

@@ -67,7 +67,8 @@ def run_all(path):
   return data
 
 
-def report(data, path):
+def report(data, path, docs=None):
+  docs = docs or FLAGS.docs
   import matplotlib  # pylint: disable=g-import-not-at-top
   matplotlib.use("Agg")
   import matplotlib.pyplot as plt  # pylint: disable=g-import-not-at-top
@@ -96,12 +97,12 @@ def report(data, path):
   ax.grid(alpha=0.3)
   ax.legend()
   fig.tight_layout()
-  os.makedirs(FLAGS.docs, exist_ok=True)
-  fig.savefig(os.path.join(FLAGS.docs, "views_ablation.png"), dpi=120)
+  os.makedirs(docs, exist_ok=True)
+  fig.savefig(os.path.join(docs, "views_ablation.png"), dpi=120)
   plt.close(fig)
   lines += ["", "![held-out PSNR against views](views_ablation.png)", ""]
   text = "\n".join(lines) + "\n"
-  with open(os.path.join(FLAGS.docs, "views_ablation.md"), "w") as f:
+  with open(os.path.join(docs, "views_ablation.md"), "w") as f:
     f.write(text)
   return text
 

@@ -1,9 +1,11 @@
 """Shared fixtures: a tiny config on the procedural scene, sized for CPU tests."""
 import atexit
+import json
 import os
 import shutil
 import tempfile
 
+import numpy as np
 import pytest
 
 # One compilation cache for the session and the subprocesses it starts: the
@@ -75,3 +77,20 @@ def config():
 def scene_root(tmp_path_factory):
   from halo_jax.datasets import procedural
   return procedural.generate(str(tmp_path_factory.mktemp("scene")), size=64)
+
+
+def stage_losses(workdir, stage):
+  """[(step, loss)] the stage logged while training (metrics.jsonl)."""
+  with open(os.path.join(workdir, "metrics.jsonl")) as f:
+    rows = [json.loads(line) for line in f]
+  return [(r["step"], r["loss"]) for r in rows
+          if r.get("stage") == stage and "loss" in r and not r.get("heldout")]
+
+
+def assert_trained(workdir, stage, factor=0.9):
+  """The stage's training loss ended below `factor` x where it started (the
+  mean of its last two logged losses against its first two): it learned."""
+  losses = [l for _, l in stage_losses(workdir, stage)]
+  assert len(losses) >= 4, f"{stage}: only {len(losses)} logged losses"
+  start, end = np.mean(losses[:2]), np.mean(losses[-2:])
+  assert end < factor * start, f"{stage}: loss {start:.4g} -> {end:.4g}"

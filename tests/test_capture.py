@@ -185,4 +185,7 @@ def test_a_short_halo_run_trains_on_recovered_cameras(photo_folder, tmp_path):
   lo = [json.loads(line) for line in open(tmp_path / "run" / "metrics.jsonl")
         if '"stage": "lo"' in line and '"loss"' in line]
   assert lo[-1]["loss"] < lo[0]["loss"]
-  assert np.isfinite(infos["hi"]["eval"]["psnr"]) and infos["hi"]["eval"]["psnr"] > 8.0
+  hi = [json.loads(line) for line in open(tmp_path / "run" / "metrics.jsonl")
+        if '"stage": "hi"' in line and '"loss"' in line]
+  assert hi[-1]["loss"] < hi[0]["loss"]
+  assert np.isfinite(infos["hi"]["eval"]["psnr"])

@@ -6,7 +6,7 @@ import imageio.v3 as iio
 import numpy as np
 import pytest
 
-from conftest import SHARED_DATA, tiny_config
+from conftest import SHARED_DATA, assert_trained, tiny_config
 from halo_jax import camera, datasets, methods, pipeline, stages
 
 FERN = os.path.join(SHARED_DATA, "nerf_llff_data", "fern")
@@ -88,9 +88,14 @@ def test_forward_facing_stages_smoke(tmp_path):
   root = write_llff(str(tmp_path / "scene"))
   c = llff_config(root)
   assert pipeline.needed(c) == ("lo", "ray", "hi")
-  infos = pipeline.run(c, str(tmp_path / "run"))
+  for name in ("lo", "hi"):
+    c[name].update(steps=16, log_every=1, lr_init=5e-3, lr_final=5e-3)
+  wd = str(tmp_path / "run")
+  infos = pipeline.run(c, wd)
   assert np.isfinite(infos["hi"]["eval"]["psnr"])
   assert infos["ray"]["step"] == c.ray.steps
+  for name in ("lo", "hi"):
+    assert_trained(wd, name)
 
 
 @pytest.mark.skipif(not os.path.exists(FERN), reason="shared LLFF data absent")

@@ -27,7 +27,31 @@ def test_fields_and_values_checked_against_independent_sources():
 
 
 def test_git_state_outside_a_checkout(tmp_path):
-  assert provenance.git_state(str(tmp_path)) == {"commit": None, "dirty": None}
+  assert provenance.git_state(str(tmp_path)) == {"commit": None, "dirty": None,
+                                                 "code_tree": None, "code_dirty": None}
+
+
+def test_git_state_tells_a_code_change_from_a_docs_change(tmp_path):
+  import subprocess  # pylint: disable=g-import-not-at-top
+  repo = str(tmp_path)
+  git = lambda *a: subprocess.run(["git", "-C", repo, *a], check=True, capture_output=True)  # noqa: E731
+  git("init", "-q")
+  git("config", "user.email", "t@t")
+  git("config", "user.name", "t")
+  (tmp_path / "halo_jax").mkdir()
+  (tmp_path / "halo_jax" / "m.py").write_text("x = 1\n")
+  (tmp_path / "README.md").write_text("a\n")
+  git("add", "-A")
+  git("commit", "-qm", "one")
+  clean = provenance.git_state(repo)
+  assert not clean["dirty"] and not clean["code_dirty"] and len(clean["code_tree"]) == 12
+  (tmp_path / "README.md").write_text("b\n")
+  docs = provenance.git_state(repo)
+  assert docs["dirty"] and not docs["code_dirty"] and docs["code_tree"] == clean["code_tree"]
+  (tmp_path / "halo_jax" / "m.py").write_text("x = 2\n")
+  assert provenance.git_state(repo)["code_dirty"]
+  git("commit", "-qam", "two")
+  assert provenance.git_state(repo)["code_tree"] != clean["code_tree"]
 
 
 def test_peak_is_measured_once_per_process():

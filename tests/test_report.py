@@ -95,6 +95,7 @@ def test_a_suite_pools_one_fingerprint_per_method_and_lists_the_rest(tmp_path, m
   assert why == ["modified tree", "unmeasured"]
   line = report.headline(scenes, versions=versions)
   assert "+2.50 dB on average" in line  # 23.5 - 21: the set-aside 30, 40 and 50 are not pooled
+  assert "Per scene kind (scenes): x +2.50 (1)." in line
   assert "halo fp_halo_new (2 runs, current code, 1 set aside)" in line
   assert "nerf_tuned fp_nt (1 runs, not the current code, 2 set aside)" in line
   page = "\n".join(report.version_lines(versions))
@@ -115,11 +116,11 @@ def test_summary_table_names_scene_changes(tmp_path):
   assert "| v+noise | `hi.density_noise=1.0` | 12.00 |" in table
 
 
-def test_goals_checked_per_scene_kind_with_the_failure_bar(tmp_path):
+def test_goals_met_only_at_the_stated_margin(tmp_path):
   root = str(tmp_path / "results")
   failing = _record(20.0, [[1, 18.0], [2, 21.0], [3, 20.0]])  # ends 1 dB below its peak
   failing["config"] = "configs/dnerf.py:a_cpu"
-  halo_dyn = _record(20.5, [[1, 19.0]])
+  halo_dyn = _record(20.49, [[1, 19.0]])
   halo_dyn["config"] = failing["config"]
   _write(root, "nerf_tuned", 0, failing, scene="a")
   _write(root, "halo", 0, halo_dyn, scene="a")
@@ -129,9 +130,10 @@ def test_goals_checked_per_scene_kind_with_the_failure_bar(tmp_path):
   scenes = report.load(root)[("cpu", "time")]
   assert report.curve_drop(scenes["a"]["nerf_tuned"]) == 1.0
   by_kind, per_scene = report.claims(scenes)
-  # dnerf: +0.5 dB, under the 1 dB bar the failing baseline sets; x (configs/x.py): +1 over 0
-  assert "| dnerf | a | nerf_tuned | +0.50 | a | 1 | **no** |" in by_kind
-  assert "| x | b | nerf_tuned | +1.00 | none | 0 | yes |" in by_kind
+  # dnerf: +0.49 dB, short of the +0.5 stated for the kind: not met, however
+  # close; x (configs/x.py) has no stated goal, so +1 dB is not judged
+  assert "| dnerf | a | nerf_tuned | +0.49 | a | +0.5 | **no** |" in by_kind
+  assert "| x | b | nerf_tuned | +1.00 | none | - | no goal stated |" in by_kind
   assert "| b | freenerf | -1.00 | 1 / 1 | **halo trails freenerf** |" in per_scene
   assert "| b | nerf_tuned | +1.00 | 1 / 1 | halo ahead |" in per_scene
 
@@ -243,7 +245,7 @@ def test_front_table_gives_seconds_to_the_baselines_end(tmp_path):
   lines = block.splitlines()
   head = next(i for i, l in enumerate(lines) if l.startswith("| suite | scene | seeds |"))
   assert lines[head] == ("| suite | scene | seeds | 15 s | 30 s | 60 s | end | "
-                         "halo: s to nerf_tuned's end (× its time) | code |")
+                         "halo: s to nerf_tuned's end (× its time) | code fingerprints |")
   # the records' commit is not in this repository: no fingerprint is known for it
   assert lines[head + 2].endswith("| s1 | 2 / 2 | 12.00 / 10.00 | 21.05 / 15.50 | "
                                   "22.00 / 18.50 | 23.00 / 21.00 | 30 (0.12) | unmeasured / unmeasured |")

@@ -1,0 +1,113 @@
+"""Every generated page and the README's results block, regenerated from
+results/ and compared with what is committed: a figure edited by hand, or a
+result file committed without its page, fails here with the command that
+regenerates it."""
+import json
+import os
+import subprocess
+
+import pytest
+
+from experiments import (ablations, calibrate_frequency, code_version, dnerf_hi_init, faults,
+                         gpu_report, method_table, report, throughput_report, views_ablation)
+
+REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+RESULTS = os.path.join(REPO, "results")
+DOCS = os.path.join(REPO, "docs", "results")
+
+
+def _read(path):
+  with open(path) as f:
+    return f.read()
+
+
+def _same(path, text, command):
+  committed = _read(path)
+  if committed != text:
+    a, b = committed.splitlines(), text.splitlines()
+    first = next((i for i, (x, y) in enumerate(zip(a, b)) if x != y), min(len(a), len(b)))
+    pytest.fail(f"{os.path.relpath(path, REPO)} differs from its results at line {first + 1}:\n"
+                f"  committed:   {a[first] if first < len(a) else '(end)'}\n"
+                f"  regenerated: {b[first] if first < len(b) else '(end)'}\n"
+                f"regenerate it: {command}")
+
+
+def _full_history():
+  """Old records name only their commit: their code tree needs the history."""
+  try:
+    shallow = subprocess.run(["git", "-C", REPO, "rev-parse", "--is-shallow-repository"],
+                             capture_output=True, text=True, check=True).stdout.strip()
+  except (OSError, subprocess.CalledProcessError):
+    pytest.skip("not a git checkout: records' code trees cannot be read")
+  if shallow == "true":
+    pytest.skip("a shallow clone: older records' code trees cannot be read")
+
+
+def test_suite_pages_and_the_readme_block(tmp_path):
+  _full_history()
+  table = code_version.load()
+  suites, versions = {}, {}
+  for key, scenes in sorted(report.load(RESULTS).items()):
+    suites[key], versions[key] = report.pool(scenes, table)
+  for (suite, mode), scenes in suites.items():
+    name = report.write_suite(suite, mode, scenes, str(tmp_path), versions[(suite, mode)])
+    _same(os.path.join(DOCS, f"{name}.md"), _read(tmp_path / f"{name}.md"),
+          "python experiments/report.py")
+  readme = tmp_path / "README.md"
+  readme.write_text(_read(os.path.join(REPO, "README.md")))
+  assert report.update_readme(str(readme), report.readme_block(suites, str(tmp_path), versions))
+  _same(os.path.join(REPO, "README.md"), readme.read_text(), "python experiments/report.py")
+
+
+@pytest.mark.parametrize("name", sorted(ablations.STUDIES))
+def test_study_pages(name):
+  path = os.path.join(DOCS, f"ablation_{name}.md")
+  if not os.path.isdir(os.path.join(RESULTS, "ablations", name)):
+    assert not os.path.exists(path), f"{path}: a page without result files"
+    pytest.skip(f"study {name}: no runs yet")
+  _same(path, ablations.report(name, ablations.STUDIES[name], RESULTS),
+        f"python experiments/ablations.py --study={name} --report_only")
+
+
+def test_gpu_page(tmp_path):
+  _same(os.path.join(DOCS, "gpu.md"),
+        gpu_report.page(gpu_report.load(os.path.join(RESULTS, "gpu")), str(tmp_path)),
+        "python experiments/gpu_report.py")
+
+
+def test_throughput_page():
+  _full_history()
+  _same(os.path.join(DOCS, "throughput.md"),
+        throughput_report.page(throughput_report.load(os.path.join(RESULTS, "throughput"))),
+        "python experiments/throughput_report.py")
+
+
+def test_frequency_calibration_page(tmp_path):
+  scenes = calibrate_frequency.load_results(os.path.join(RESULTS, "frequency"))
+  text, _ = calibrate_frequency.report(scenes, str(tmp_path), RESULTS)
+  _same(os.path.join(DOCS, "frequency_calibration.md"), text,
+        "python experiments/calibrate_frequency.py --report_only")
+
+
+def test_method_table_block():
+  page = os.path.join(REPO, "docs", "baselines.md")
+  _same(page, method_table.splice(_read(page), method_table.generate()),
+        "python experiments/method_table.py")
+
+
+def test_failures_page():
+  with open(os.path.join(RESULTS, "faults.json")) as f:
+    rows = json.load(f)
+  _same(os.path.join(REPO, "docs", "failures.md"), faults.report(rows),
+        "python experiments/faults.py")
+
+
+@pytest.mark.parametrize("module, result, page", [
+    (dnerf_hi_init, "ablations/dnerf_hi_init_val.json", "dnerf_hi_init.md"),
+    (views_ablation, "ablations/views_lego_8view.json", "views_ablation.md")])
+def test_one_off_study_pages(module, result, page, tmp_path):
+  with open(os.path.join(RESULTS, result)) as f:
+    data = json.load(f)
+  module.report(data, os.path.join(RESULTS, result), docs=str(tmp_path))
+  _same(os.path.join(DOCS, page), _read(tmp_path / page),
+        f"python experiments/{module.__name__.split('.')[-1]}.py --report_only")
