@@ -109,7 +109,8 @@ class NeRFMLP(nn.Module):
     use_viewdirs: condition colour on the view direction (Hi-NeRF); Lo-NeRF
       leaves it out so its colour is view-independent.
     dir_freqs: L of the direction encoding.
-    density_bias: act(raw + bias); -1 starts a softplus field nearly empty.
+    density_bias: act(raw + bias); -1 starts a softplus field at about 0.31
+      per unit (softplus(-1)), -4 at about 0.018.
     density_activation: 'softplus' or 'relu' (DENSITY_ACTIVATIONS).
     compute_dtype: 'float32' or 'bfloat16' (COMPUTE_DTYPES): the dtype of
       the trunk's and the view layers' matmuls; parameters, the encodings
