@@ -7,7 +7,9 @@ same numbers (a refactor, a comment). So a tree's fingerprint is measured:
 `experiments/same_numbers.py --record` trains every method step-capped on one
 scene of each kind and hashes, per method, every logged loss and held-out
 PSNR. Records of one method pool when their fingerprints agree, and a record
-is current when its fingerprint is the one the checkout's tree measured.
+is current when its fingerprint is the one the newest measured commit has
+(so that a page is a function of results/ alone; `same_numbers.py --record`
+after a change of the training code brings the newest commit forward).
 Nobody lists neutral commits by hand: a change that moves no number measures
 the same fingerprint.
 
@@ -22,6 +24,7 @@ fingerprint, so time-budgeted records carry their stages' step rates
 import hashlib
 import json
 import os
+import subprocess
 import time
 
 from halo_jax import provenance
@@ -57,7 +60,8 @@ def record(commit: str, runs: dict, steps: int, views: int, path: str = FILE) ->
   methods = sorted({k.rsplit("/", 1)[-1] for k in runs})
   entry = table.setdefault(tree, {"commit": commit, "methods": {}})
   entry["methods"].update({m: of_runs(runs, m) for m in methods})
-  entry.update(scenes=sorted({k.rsplit("/", 1)[0] for k in runs}), steps=steps, views=views,
+  entry.update(commit_time=commit_time(commit),
+               scenes=sorted({k.rsplit("/", 1)[0] for k in runs}), steps=steps, views=views,
                versions=provenance.collect(measure_peak=False)["versions"],
                time_utc=time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()))
   with open(path, "w") as f:
@@ -90,13 +94,29 @@ def of_record(rec: dict, table: dict) -> str:
           ) or UNMEASURED
 
 
+def newest(table: dict):
+  """(code tree, entry) of the newest commit measured (by commit time), or
+  (None, {}) for an empty table. Pages judge "current" against it, so that
+  they are a function of results/ alone; same_numbers --record after a
+  change of the training code moves it."""
+  if not table:
+    return None, {}
+  tree = max(table, key=lambda t: (table[t].get("commit_time", ""), t))
+  return tree, table[tree]
+
+
 def current(method: str, table: dict):
-  """The checkout's fingerprint for `method` (None where its tree is
-  unmeasured or modified)."""
-  state = provenance.git_state()
-  if state["code_dirty"] or not state["code_tree"]:
-    return None
-  return (table.get(state["code_tree"]) or {}).get("methods", {}).get(method)
+  """The fingerprint of `method` at the newest measured commit (None where
+  that measurement has no run of the method)."""
+  return newest(table)[1].get("methods", {}).get(method)
+
+
+def commit_time(commit: str) -> str:
+  try:
+    return subprocess.run(["git", "-C", REPO, "show", "-s", "--format=%cI", commit],
+                          capture_output=True, text=True, check=True).stdout.strip()
+  except (OSError, subprocess.SubprocessError):
+    return ""
 
 
 def choose(records, table):

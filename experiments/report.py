@@ -83,6 +83,7 @@ def pool(scenes, table):
     why = lambda r: code_version.of_record(r, table)  # noqa: E731
     versions[m] = {"fingerprint": fp, "runs": len(chosen),
                    "current": fp is not None and fp == code_version.current(m, table),
+                   "newest": (code_version.newest(table)[1].get("commit") or "?")[:7],
                    "aside": [(s, r, why(r)) for s, r in tagged if any(r is a for a in aside)]}
   return dict(pooled), versions
 
@@ -94,7 +95,9 @@ def version_lines(versions):
          "Each method's figures on this page pool only its runs of one code fingerprint "
          "(`experiments/code_version.py`: the hash of what step-capped runs of the method "
          "compute, measured per code tree by `experiments/same_numbers.py --record`). "
-         "Current: the checkout's code measures the same fingerprint.", "",
+         "Current: the newest measured commit "
+         f"({next(iter(versions.values()))['newest'] if versions else '?'}) measures the same "
+         "fingerprint for the method.", "",
          "| method | fingerprint pooled | runs pooled | current | runs set aside |",
          "|---|---|---|---|---|"]
   for m, v in versions.items():
@@ -461,9 +464,10 @@ def _fingerprint_note(versions, methods) -> str:
   parts = []
   for m in methods:
     v = versions[m]
-    parts.append(f"{m} {v['fingerprint']} ({v['runs']} runs, "
-                 f"{'current code' if v['current'] else 'not the current code'}"
-                 f"{', ' + str(len(v['aside'])) + ' set aside' if v['aside'] else ''})")
+    same = "the same" if v["current"] else "otherwise"
+    parts.append(f"{m} {v['fingerprint']} ({v['runs']} runs"
+                 f"{', ' + str(len(v['aside'])) + ' set aside' if v['aside'] else ''}; the newest "
+                 f"measured code, {v['newest']}, computes {same})")
   return "Code fingerprints: " + "; ".join(parts) + "."
 
 

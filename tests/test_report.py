@@ -84,8 +84,9 @@ def test_a_suite_pools_one_fingerprint_per_method_and_lists_the_rest(tmp_path, m
     _write(root, "nerf_tuned", seed, r)
   table = {trees["new"]: {"methods": {"halo": "fp_halo_new", "nerf_tuned": "fp_nt"}},
            trees["old"]: {"methods": {"halo": "fp_halo_old"}}}
-  monkeypatch.setattr(report.code_version, "current",
-                      lambda m, t: {"halo": "fp_halo_new", "nerf_tuned": "fp_other"}[m])
+  table[trees["new"]]["commit"] = "1234567890"
+  table["d" * 12] = {"commit": "fedcba9876", "commit_time": "2026-01-02T00:00:00+00:00",
+                     "methods": {"halo": "fp_halo_new", "nerf_tuned": "fp_other"}}
   scenes, versions = report.pool(report.load(root)[("cpu", "time")], table)
   assert [r["psnr"] for r in scenes["s1"]["halo"]] == [23.0, 24.0]
   assert [r["psnr"] for r in scenes["s1"]["nerf_tuned"]] == [21.0]
@@ -96,8 +97,11 @@ def test_a_suite_pools_one_fingerprint_per_method_and_lists_the_rest(tmp_path, m
   line = report.headline(scenes, versions=versions)
   assert "+2.50 dB on average" in line  # 23.5 - 21: the set-aside 30, 40 and 50 are not pooled
   assert "Per scene kind (scenes): x +2.50 (1)." in line
-  assert "halo fp_halo_new (2 runs, current code, 1 set aside)" in line
-  assert "nerf_tuned fp_nt (1 runs, not the current code, 2 set aside)" in line
+  # current: what the newest measured commit (fedcba9, by commit time) computes
+  assert ("halo fp_halo_new (2 runs, 1 set aside; the newest measured code, fedcba9, computes "
+          "the same)") in line
+  assert ("nerf_tuned fp_nt (1 runs, 2 set aside; the newest measured code, fedcba9, computes "
+          "otherwise)") in line
   page = "\n".join(report.version_lines(versions))
   assert "| halo | fp_halo_new | 2 | yes | 1 (fp_halo_old) |" in page
   assert "| s1 | nerf_tuned | 1 | abcdef0 | unmeasured | 40.00 |" in page
