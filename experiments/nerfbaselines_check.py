@@ -54,6 +54,20 @@ def _without_lpips(pred, out):
   return evaluation.evaluate(pred, out, evaluation_protocol=NoLpips())
 
 
+def _provenance():
+  """Commit, tree state, machine and time, by git alone: this script runs in
+  nerfbaselines' venv, which has no jax to import halo_jax.provenance with."""
+  import platform  # pylint: disable=g-import-not-at-top
+  import time  # pylint: disable=g-import-not-at-top
+  repo = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..")
+  git = lambda *a: subprocess.run(["git", "-C", repo, *a], capture_output=True,  # noqa: E731
+                                  text=True).stdout.strip()
+  return {"git": {"commit": git("rev-parse", "HEAD") or None,
+                  "dirty": bool(git("status", "--porcelain", "--untracked-files=no"))},
+          "python": platform.python_version(), "host": platform.node(),
+          "time_utc": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())}
+
+
 def main(pred, out):
   with tempfile.TemporaryDirectory() as tmp:
     full, why = _full_evaluate(pred, os.path.join(tmp, "full.json"))
@@ -71,7 +85,10 @@ def main(pred, out):
   import nerfbaselines  # pylint: disable=g-import-not-at-top
   result = {"nerfbaselines": nerfbaselines.__version__, "full_evaluate": full is not None,
             "why_not_full": why, "num_views": scores["num_views"],
-            "metrics": rows}
+            "metrics": rows,
+            # where the scores came from: the predictions folder, the code and machine
+            "predictions": os.path.abspath(pred),
+            "provenance": _provenance()}
   with open(out, "w") as f:
     json.dump(result, f, indent=1)
   if not full:
