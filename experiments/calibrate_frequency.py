@@ -4,6 +4,7 @@ leave-one-scene-out.
   python experiments/calibrate_frequency.py                 # run what is missing, then report
   python experiments/calibrate_frequency.py --only=lego     # some scenes (regex on the name)
   python experiments/calibrate_frequency.py --report_only   # tables and figures from the files
+  python experiments/calibrate_frequency.py --views=validation  # the grid scored on validation views
 
 For each scene (the CPU suite's scenes that have a Lo-NeRF: experiments/suites.py)
 every point of `tune.grid` trains a short Lo-NeRF (`--lo_steps`), scores rho on
@@ -34,7 +35,11 @@ FLAGS = flags.FLAGS
 
 def define_flags():
   """Defined on launch, not on import (tests import several experiments)."""
-  flags.DEFINE_string("results", os.path.join(REPO, "results", "frequency"), "Result files.")
+  flags.DEFINE_enum("views", "test", ["test", "validation"],
+                    "held-out views the grid's PSNR is scored on: the suite's test views (the "
+                    "calibration as first made) or each scene's validation views")
+  flags.DEFINE_string("results", "", "Result files ('': results/frequency, or "
+                      "results/frequency_val for --views=validation).")
   flags.DEFINE_string("scratch", "/tmp/halo_calibrate", "Grid points' workdirs.")
   flags.DEFINE_string("docs", os.path.join(REPO, "docs", "results"), "Report folder.")
   flags.DEFINE_string("only", "", "Scenes whose name matches this regex.")
@@ -44,10 +49,22 @@ def define_flags():
 # Scenes with a Lo-NeRF stage (the light field's HALO has none: the rule
 # does not apply to it, and `auto` refuses it).
 SCENES = tuple(s for s in suites.CPU.scenes if "halo" in s.methods and s.name != "knights")
+# The same kinds on the validation suite, each scene's validation views in
+# the test slot (docs/validation.md): where the threshold is to be chosen.
+VALIDATION_SCENES = tuple(s for s in suites.VALIDATION_SCENES
+                          if "halo" in s.methods and s.name != "knights")
+VALIDATION_OVERRIDES = (("data.test_split", "val"), ("data.test_views", "all"))
+
+# --views: (scenes, result folder under results/, page name)
+VIEWS = {"test": (SCENES, "frequency", "frequency_calibration"),
+         "validation": (VALIDATION_SCENES, "frequency_val", "frequency_calibration_val")}
 
 
-def configure(scene, lo_steps, scratch):
+def configure(scene, lo_steps, scratch, validation=False):
   c = methods.apply(runs.load_config(scene.config), "halo")
+  if validation:
+    for field, value in VALIDATION_OVERRIDES + tuple(scene.overrides):
+      runs.set_field(c, field, value)
   if c.data.kind == "procedural" and not c.data.root:
     c.data.root = os.path.join(scratch, "scenes",
                                f"{c.data.procedural_scene}_{c.data.procedural_size}")
@@ -58,9 +75,9 @@ def configure(scene, lo_steps, scratch):
   return c
 
 
-def run_scene(scene, lo_steps, scratch, results):
+def run_scene(scene, lo_steps, scratch, results, validation=False):
   from halo_jax import datasets, pipeline, tuning  # pylint: disable=g-import-not-at-top
-  c = configure(scene, lo_steps, scratch)
+  c = configure(scene, lo_steps, scratch, validation)
   workdir = os.path.join(scratch, scene.name)
   os.makedirs(workdir, exist_ok=True)
   start = time.time()
@@ -69,6 +86,7 @@ def run_scene(scene, lo_steps, scratch, results):
   hi = c.hi.encoding
   record = {
       "scene": scene.name, "config": scene.config, "lo_steps": lo_steps,
+      "held_out": {"split": c.data.test_split, "views": c.data.test_views},
       "hi_freq": 2.0 ** (hi.L - 1) / hi.scale,
       "hand_set": {"L": c.lo.encoding.L, "scale": c.lo.encoding.scale},
       "tune": {k: c.tune[k] for k in ("grid", "num_pairs", "size", "shift_px",
@@ -175,7 +193,7 @@ def _loo_table(scenes, loo):
                   f"largest {max(regrets):.2f} dB.", ""]
 
 
-def _scene_section(name, s, frozen, relative, docs):
+def _scene_section(name, s, frozen, relative, docs, prefix="frequency"):
   from halo_jax import plots, tuning  # pylint: disable=g-import-not-at-top
   first = s["grid"][0]["criterion"]
   lines = [f"## {name}", "",
@@ -191,7 +209,7 @@ def _scene_section(name, s, frozen, relative, docs):
                  f"{g.get('criterion_warped', float('nan')):.4f} | "
                  f"{tuning.score(g['criterion'], first, relative):.4f} | {g['psnr']:.2f} | "
                  f"{g['ssim']:.3f} | {shift:.2f} |")
-  png = f"frequency_{name}.png"
+  png = f"{prefix}_{name}.png"
   plots.criterion_and_psnr([f"{g['L']}:{g['scale']:g}" for g in s["grid"]],
                            [tuning.score(g["criterion"], first, relative) for g in s["grid"]],
                            [g["psnr"] for g in s["grid"]], os.path.join(docs, png),
@@ -200,18 +218,24 @@ def _scene_section(name, s, frozen, relative, docs):
   return lines + ["", f"![{name}]({png})", ""]
 
 
-def report(scenes, docs, runs_root=None):
-  """Writes frequency_calibration.md (+ PNGs); returns (markdown, {'relative',
-  'threshold'}: the settings to freeze)."""
+def report(scenes, docs, runs_root=None, views="test"):
+  """Writes the calibration page of `views` (VIEWS: frequency_calibration.md
+  for the test views, frequency_calibration_val.md for the validation views;
+  + PNGs); returns (markdown, {'relative', 'threshold'}: the settings to
+  freeze)."""
+  _, folder, page = VIEWS[views]
   forms, best = calibrate(scenes)
   chosen = forms[best]
   frozen = chosen["frozen"]["threshold"]
   os.makedirs(docs, exist_ok=True)
   lines = [
-      "# Frequency rule: calibration by leave-one-scene-out", "",
-      "Generated by `experiments/calibrate_frequency.py` from `results/frequency/*.json`; "
-      "do not edit. Protocol: docs/frequency.md. The PSNR is Lo-NeRF's on the scene's "
-      "held-out views; for each scene the threshold is chosen on the other scenes only.", "",
+      "# Frequency rule: calibration by leave-one-scene-out"
+      + (", on validation views" if views == "validation" else ""), "",
+      f"Generated by `experiments/calibrate_frequency.py --views={views} --report_only` from "
+      f"`results/{folder}/*.json`; do not edit. Protocol: docs/frequency.md. The PSNR is "
+      "Lo-NeRF's on the scene's "
+      + ("validation views (docs/validation.md)" if views == "validation" else "held-out views")
+      + "; for each scene the threshold is chosen on the other scenes only.", "",
       "| form of the rule | mean leave-one-out distance dB | threshold on all scenes |",
       "|---|---|---|"]
   for form, f in forms.items():
@@ -229,9 +253,10 @@ def report(scenes, docs, runs_root=None):
   if runs_root:
     lines += auto_section(runs_root)
   for name, s in calibration.scored(scenes, False, chosen["key"]).items():
-    lines += _scene_section(name, s, frozen, chosen["relative"], docs)
+    lines += _scene_section(name, s, frozen, chosen["relative"], docs,
+                            "frequency" if views == "test" else "frequency_val")
   text = "\n".join(lines) + "\n"
-  with open(os.path.join(docs, "frequency_calibration.md"), "w") as f:
+  with open(os.path.join(docs, f"{page}.md"), "w") as f:
     f.write(text)
   return text, {"warp": chosen["warp"], "relative": chosen["relative"], "threshold": frozen}
 
@@ -239,24 +264,27 @@ def report(scenes, docs, runs_root=None):
 def main(argv):
   del argv
   logging.set_verbosity(logging.WARNING)
+  scene_list, folder, _ = VIEWS[FLAGS.views]
+  validation = FLAGS.views == "validation"
+  results = FLAGS.results or os.path.join(REPO, "results", folder)
   if not FLAGS.report_only:
-    for scene in SCENES:
+    for scene in scene_list:
       if not re.search(FLAGS.only, scene.name):
         continue
-      path = os.path.join(FLAGS.results, f"{scene.name}.json")
+      path = os.path.join(results, f"{scene.name}.json")
       if os.path.exists(path):
         print(f"done     {scene.name}")
         continue
       if scene.needs and not os.path.isdir(os.path.join(defaults.data_root(), scene.needs)):
         print(f"no data  {scene.name} ({scene.needs})")
         continue
-      r = run_scene(scene, FLAGS.lo_steps, FLAGS.scratch, FLAGS.results)
+      r = run_scene(scene, FLAGS.lo_steps, FLAGS.scratch, results, validation)
       print(f"ran      {scene.name}: " + ", ".join(
           f"{g['L']}:{g['scale']:g} rho {g['criterion']:.3f} PSNR {g['psnr']:.2f}"
           for g in r["grid"]), flush=True)
-  scenes = load_results(FLAGS.results)
+  scenes = load_results(results)
   if len(scenes) >= 2:
-    text, frozen = report(scenes, FLAGS.docs, os.path.dirname(FLAGS.results))
+    text, frozen = report(scenes, FLAGS.docs, os.path.dirname(results), FLAGS.views)
     print(text.split("\n## ")[0])
     print(f"frozen: tune.warp={frozen['warp']}, tune.relative={frozen['relative']}, "
           f"tune.threshold={frozen['threshold']:.4g}")

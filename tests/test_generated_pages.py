@@ -82,11 +82,16 @@ def test_throughput_page():
         "python experiments/throughput_report.py")
 
 
-def test_frequency_calibration_page(tmp_path):
-  scenes = calibrate_frequency.load_results(os.path.join(RESULTS, "frequency"))
-  text, _ = calibrate_frequency.report(scenes, str(tmp_path), RESULTS)
-  _same(os.path.join(DOCS, "frequency_calibration.md"), text,
-        "python experiments/calibrate_frequency.py --report_only")
+@pytest.mark.parametrize("views", sorted(calibrate_frequency.VIEWS))
+def test_frequency_calibration_pages(views, tmp_path):
+  _, folder, page = calibrate_frequency.VIEWS[views]
+  scenes = calibrate_frequency.load_results(os.path.join(RESULTS, folder))
+  if len(scenes) < 2:
+    assert not os.path.exists(os.path.join(DOCS, f"{page}.md")), f"{page}.md without results"
+    pytest.skip(f"results/{folder}: fewer than 2 scenes")
+  text, _ = calibrate_frequency.report(scenes, str(tmp_path), RESULTS, views)
+  _same(os.path.join(DOCS, f"{page}.md"), text,
+        f"python experiments/calibrate_frequency.py --views={views} --report_only")
 
 
 def test_method_table_block():

@@ -257,3 +257,16 @@ def test_front_table_gives_seconds_to_the_baselines_end(tmp_path):
   assert "on 1 of the 1 scenes where both have fronts" in block
   assert lines[-1].startswith("| [cpu/steps](docs/results/cpu_steps.md) | s3 |  | 19.00 |")
   assert os.path.exists(os.path.join(docs, "cpu_time_fronts.png"))
+
+
+def test_frequency_calibration_on_validation_views_reads_no_test_view():
+  from experiments import calibrate_frequency, suites  # pylint: disable=g-import-not-at-top
+  by = {s.name: s for s in calibrate_frequency.VALIDATION_SCENES}
+  assert "knights" not in by and {"thin", "sparse", "dnerf_hellwarrior"} <= set(by)
+  lego = calibrate_frequency.configure(by["lego_8view"], 300, "/tmp/unused", validation=True)
+  assert (lego.data.test_split, lego.data.test_views) == ("train", suites.LEGO_VALIDATION_VIEWS)
+  assert not set(suites.LEGO_VALIDATION_VIEWS.split(",")) & set(lego.data.train_views.split(","))
+  hook = calibrate_frequency.configure(by["dnerf_hook"], 300, "/tmp/unused", validation=True)
+  assert hook.data.test_split == "val"
+  fern = calibrate_frequency.configure(by["fern_4view"], 300, "/tmp/unused", validation=True)
+  assert fern.data.test_views == suites.FERN_VALIDATION_VIEWS
