@@ -81,11 +81,24 @@ def pool(scenes, table):
       if any(r is c for c in chosen):
         pooled[s].setdefault(m, []).append(r)
     why = lambda r: code_version.of_record(r, table)  # noqa: E731
+    rates = [final_steps_per_s(r) for r in chosen]
+    rates = [x for x in rates if x]
     versions[m] = {"fingerprint": fp, "runs": len(chosen),
+                   "steps_per_s": float(np.median(rates)) if rates else None,
                    "current": fp is not None and fp == code_version.current(m, table),
                    "newest": (code_version.newest(table)[1].get("commit") or "?")[:7],
                    "aside": [(s, r, why(r)) for s, r in tagged if any(r is a for a in aside)]}
   return dict(pooled), versions
+
+
+def final_steps_per_s(rec):
+  """The last stage's training steps per second (a time-budgeted run's step
+  count rests on it; the fingerprint does not see speed)."""
+  stages = rec.get("stages") or {}
+  if not stages:
+    return None
+  last = stages[list(stages)[-1]]
+  return last.get("steps_per_s") or (last["step"] / last["wall_s"] if last.get("wall_s") else None)
 
 
 def version_lines(versions):
@@ -97,14 +110,18 @@ def version_lines(versions):
          "compute, measured per code tree by `experiments/same_numbers.py --record`). "
          "Current: the newest measured commit "
          f"({next(iter(versions.values()))['newest'] if versions else '?'}) measures the same "
-         "fingerprint for the method.", "",
-         "| method | fingerprint pooled | runs pooled | current | runs set aside |",
-         "|---|---|---|---|---|"]
+         "fingerprint for the method. The fingerprint does not see speed: the final "
+         "stage's steps per second show a change of it.", "",
+         "| method | fingerprint pooled | runs pooled | current | final stage's steps/s "
+         "(median of pooled runs) | runs set aside |",
+         "|---|---|---|---|---|---|"]
   for m, v in versions.items():
     why = collections.Counter(w for _, _, w in v["aside"])
     aside = ", ".join(f"{n} ({w})" for w, n in sorted(why.items())) or "none"
+    rate = v.get("steps_per_s")
     out.append(f"| {m} | {v['fingerprint'] or 'none measured'} | {v['runs']} | "
-               f"{'yes' if v['current'] else '**no**'} | {aside} |")
+               f"{'yes' if v['current'] else '**no**'} | "
+               f"{'-' if rate is None else f'{rate:.2f}'} | {aside} |")
   rows = [(s, m, r, w) for m, v in versions.items() for s, r, w in v["aside"]]
   if rows:
     out += ["", "Runs set aside (not in any table above or below):", "",

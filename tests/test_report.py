@@ -76,6 +76,7 @@ def test_a_suite_pools_one_fingerprint_per_method_and_lists_the_rest(tmp_path, m
   for seed, (p, tree) in enumerate([(23.0, "new"), (24.0, "new"), (30.0, "old")]):
     r = rec(p, tree)
     r["method"] = "halo"
+    r["stages"]["hi"]["wall_s"] = 10.0 * (seed + 1)  # 100 steps: 10, 5 and 3.3 steps/s
     _write(root, "halo", seed, r)
   for seed, (p, tree, dirty) in enumerate([(21.0, "new", False), (40.0, "unmeasured", False),
                                            (50.0, "new", True)]):
@@ -103,7 +104,8 @@ def test_a_suite_pools_one_fingerprint_per_method_and_lists_the_rest(tmp_path, m
   assert ("nerf_tuned fp_nt (1 runs, 2 set aside; the newest measured code, fedcba9, computes "
           "otherwise)") in line
   page = "\n".join(report.version_lines(versions))
-  assert "| halo | fp_halo_new | 2 | yes | 1 (fp_halo_old) |" in page
+  # the pooled runs' median final-stage rate: (10 + 5) / 2
+  assert "| halo | fp_halo_new | 2 | yes | 7.50 | 1 (fp_halo_old) |" in page
   assert "| s1 | nerf_tuned | 1 | abcdef0 | unmeasured | 40.00 |" in page
 
 
