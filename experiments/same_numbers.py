@@ -18,6 +18,10 @@ results/fingerprints.json under the code tree of the checkout, and
   python experiments/same_numbers.py --out=/tmp/head.json --record
   python experiments/same_numbers.py --out=/tmp/old.json --record --commit=3dc7483
 
+The runs use one thread on one core (set at the top of this script): XLA
+splits its CPU reductions by thread count, and the last bits of a figure
+would follow it.
+
 Each run trains every stage of its method for --steps steps (no time budget,
 so the machine's speed does not change what is trained), logs every step and
 scores the final stage on the first --views held-out views. Scenes whose data
@@ -33,7 +37,16 @@ import subprocess
 import sys
 import tempfile
 
-from absl import app, flags
+# One thread on one core, set before jax is imported: XLA's CPU backend splits
+# reductions by its thread count, so the same code on 1 or 2 cores differs in
+# the last bits, and a fingerprint must not depend on the machine's load.
+if hasattr(os, "sched_setaffinity"):
+  os.sched_setaffinity(0, {min(os.sched_getaffinity(0))})
+os.environ["XLA_FLAGS"] = (os.environ.get("XLA_FLAGS", "")
+                           + " --xla_cpu_multi_thread_eigen=false"
+                           + " intra_op_parallelism_threads=1").strip()
+
+from absl import app, flags  # noqa: E402
 
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
 from experiments import suites  # noqa: E402
