@@ -27,7 +27,7 @@ from absl import app, flags, logging
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 if __package__ in (None, ""):
   sys.path.insert(0, REPO)
-from experiments import run_file, suites  # pylint: disable=g-import-not-at-top
+from experiments import ablations, run_file, suites  # pylint: disable=g-import-not-at-top
 from halo_jax import calibration, defaults, methods, provenance, runs  # pylint: disable=g-import-not-at-top
 
 FLAGS = flags.FLAGS
@@ -53,7 +53,6 @@ SCENES = tuple(s for s in suites.CPU.scenes if "halo" in s.methods and s.name !=
 # the test slot (docs/validation.md): where the threshold is to be chosen.
 VALIDATION_SCENES = tuple(s for s in suites.VALIDATION_SCENES
                           if "halo" in s.methods and s.name != "knights")
-VALIDATION_OVERRIDES = (("data.test_split", "val"), ("data.test_views", "all"))
 
 # --views: (scenes, result folder under results/, page name)
 VIEWS = {"test": (SCENES, "frequency", "frequency_calibration"),
@@ -63,7 +62,7 @@ VIEWS = {"test": (SCENES, "frequency", "frequency_calibration"),
 def configure(scene, lo_steps, scratch, validation=False):
   c = methods.apply(runs.load_config(scene.config), "halo")
   if validation:
-    for field, value in VALIDATION_OVERRIDES + tuple(scene.overrides):
+    for field, value in ablations.VALIDATION + tuple(scene.overrides):
       runs.set_field(c, field, value)
   if c.data.kind == "procedural" and not c.data.root:
     c.data.root = os.path.join(scratch, "scenes",
