@@ -64,14 +64,11 @@ class Study:
   budget: str = "steps"
 
 
-# Validation views instead of the suite's test views; the CPU suite's budget,
-# core count and curve settings otherwise.
-VALIDATION = (("data.test_split", "val"), ("data.test_views", "all"))
-
-
 def _terms(study: Study) -> suites.Suite:
+  """The CPU suite's budget, core count and curve settings, on the study's
+  scenes' validation views."""
   return dataclasses.replace(suites.CPU, scenes=study.scenes,
-                             overrides=suites.CPU.overrides + VALIDATION)
+                             overrides=suites.CPU.overrides + suites.VALIDATION_VIEWS)
 
 
 def _both(field, value):

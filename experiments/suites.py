@@ -101,6 +101,11 @@ VALIDATION_360 = (
           overrides=_LEGO_VALIDATION),
 )
 
+# The overrides that put a validation scene's views in the test slot (each
+# scene's own overrides then replace them where its views are not a split of
+# its own).
+VALIDATION_VIEWS = (("data.test_split", "val"), ("data.test_views", "all"))
+
 # Every scene kind with views that are neither training nor test views: where
 # a default is chosen (docs/validation.md). The suite's overrides put each
 # scene's validation views in the test slot; scenes override them where
