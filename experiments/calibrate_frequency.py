@@ -92,7 +92,8 @@ def run_scene(scene, lo_steps, scratch, results, validation=False):
                                       "mask_fraction", "seed", "warp")},
       "grid": [{k: g[k] for k in ("L", "scale", "max_freq", "criterion", "criterion_plain",
                                   "criterion_warped", "per_pair",
-                                  "shift_px", "pair_kind", "psnr", "ssim", "wall_s", "steps")}
+                                  "shift_px", "pair_kind", "psnr", "ssim", "wall_s", "steps",
+                                  "collapsed")}
                for g in res["grid"]],
       "run_seconds": round(time.time() - start, 1),
       "provenance": provenance.collect()}
@@ -199,15 +200,17 @@ def _scene_section(name, s, frozen, relative, docs, prefix="frequency"):
            f"`{s['config']}`, Lo-NeRF {s['lo_steps']} steps per point, pairs "
            f"'{s['grid'][0]['pair_kind']}', Hi-NeRF's frequency {s['hi_freq']:g}.", "",
            "| L | s | max freq | rho | warped rho | score (frozen form) | Lo held-out PSNR | "
-           "SSIM | median shift px |",
-           "|---|---|---|---|---|---|---|---|---|"]
+           "SSIM | median shift px | learned |",
+           "|---|---|---|---|---|---|---|---|---|---|"]
   for g in s["grid"]:
     shift = sorted(g["shift_px"])[len(g["shift_px"]) // 2]
     lines.append(f"| {g['L']} | {g['scale']:g} | {g['max_freq']:g} | "
                  f"{g.get('criterion_plain', float('nan')):.4f} | "
                  f"{g.get('criterion_warped', float('nan')):.4f} | "
                  f"{tuning.score(g['criterion'], first, relative):.4f} | {g['psnr']:.2f} | "
-                 f"{g['ssim']:.3f} | {shift:.2f} |")
+                 f"{g['ssim']:.3f} | {shift:.2f} | "
+                 # files from before the collapse check carry no verdict
+                 f"{ {True: 'collapsed', False: 'yes'}.get(g.get('collapsed'), '-')} |")
   png = f"{prefix}_{name}.png"
   plots.criterion_and_psnr([f"{g['L']}:{g['scale']:g}" for g in s["grid"]],
                            [tuning.score(g["criterion"], first, relative) for g in s["grid"]],

@@ -31,11 +31,16 @@ def define_flags():
   flags.DEFINE_string("data_root", "", "Replaces each run's data.root (data moved since).")
 
 
-def rescore_method(method_dir: str, data_root: str) -> dict:
+def rescore_method(method_dir: str, data_root: str, stage: str = "") -> dict:
   """{'lpips', 'psnr_8bit', 'ssim_8bit', 'per_view'} of one method's output
-  stage's saved renders (the stage whose eval/ folder holds them)."""
+  stage's saved renders: `stage`, or where it is '' the one stage whose eval/
+  folder holds them."""
   stages = [s for s in sorted(os.listdir(method_dir))
             if os.path.isfile(os.path.join(method_dir, s, "eval", "metrics.json"))]
+  if stage:
+    if stage not in stages:
+      raise ValueError(f"{method_dir}: stage {stage!r} has no eval/metrics.json (found {stages})")
+    stages = [stage]
   if len(stages) != 1:
     raise ValueError(f"{method_dir}: expected one stage with eval/metrics.json, found {stages}")
   stage_dir = os.path.join(method_dir, stages[0])
@@ -63,7 +68,9 @@ def main(_):
   with open(path) as f:
     results = json.load(f)
   for method, r in results.items():
-    s = rescore_method(os.path.join(FLAGS.workdir, method), FLAGS.data_root)
+    # the output stage is the last one the method trained (results.json keeps their order)
+    s = rescore_method(os.path.join(FLAGS.workdir, method), FLAGS.data_root,
+                       list(r["stages"])[-1])
     for view, scores in s.pop("per_view").items():
       r["per_view"].setdefault(view, {})["lpips"] = scores["lpips"]
     r.update(s, rescored_from="8-bit renders")

@@ -18,7 +18,7 @@ from typing import List, Tuple
 import numpy as np
 
 from halo_jax import frequency, view_pairs
-from halo_jax.stages import base
+from halo_jax.stages import base, collapse
 from halo_jax.stages.state import load
 
 
@@ -85,15 +85,20 @@ def tune(config, workdir: str, dataset, run_stages, full_grid: bool = False) -> 
   Grid points already finished in `workdir` are reused, so a killed search
   resumes. Without full_grid the search stops at the first point below the
   threshold. The choice and its 'note' come from `decide`: never Hi-NeRF's
-  own frequency unannounced. run_stages: halo_jax.pipeline.run (passed in,
-  so that this module does not import the pipeline that calls it).
+  own frequency unannounced. A point whose Lo-NeRF collapsed (learned
+  nothing, stages/collapse.py) is kept in the grid with `collapsed: True`
+  and its criterion, and is never chosen. run_stages: halo_jax.pipeline.run
+  (passed in, so that this module does not import the pipeline that calls it).
   """
   t = config.tune
   grid, chosen = [], None
   for L, s in parse_grid(t.grid):
     wd = point_dir(workdir, L, s)
     c = point_config(config, L, s)
-    info = run_stages(c, wd, dataset)["lo"]   # a finished point is restored, not retrained
+    try:
+      info = run_stages(c, wd, dataset)["lo"]   # a finished point is restored, not retrained
+    except collapse.Collapsed as e:
+      info = e.infos["lo"]                      # its state is saved all the same
     trainer = base.trainer_of(c, "lo")
     lo_state = load(wd, "lo", trainer.params_like(c, "lo", dataset))
     crit = criterion_of(lo_renderer(c, dataset, lo_state), dataset, c)
@@ -104,10 +109,11 @@ def tune(config, workdir: str, dataset, run_stages, full_grid: bool = False) -> 
                  "criterion_warped": crit["criterion_warped"],
                  "shift_px": crit["shift_px"], "pair_kind": crit["pair_kind"],
                  "psnr": ev.get("psnr"), "ssim": ev.get("ssim"), "lpips": ev.get("lpips"),
-                 "wall_s": info["wall_s"], "steps": info["step"]})
+                 "wall_s": info["wall_s"], "steps": info["step"],
+                 "collapsed": collapse.collapsed(info)})
     row = grid[-1]
     row["score"] = score(row["criterion"], grid[0]["criterion"], t.relative)
-    if chosen is None and row["score"] < t.threshold:
+    if chosen is None and row["score"] < t.threshold and not row["collapsed"]:
       chosen = {"L": L, "scale": s}
       if not full_grid:
         break
@@ -135,7 +141,8 @@ def decide(rows, grid, threshold, hi_freq):
   each with L, scale, criterion and optionally the score the threshold is
   compared with, else the criterion) out of `grid` (parse_grid order).
 
-  The first point below the threshold, except that the rule never hands back
+  The first point below the threshold that did not collapse (rows with
+  `collapsed` true are never chosen), except that the rule never hands back
   Hi-NeRF's frequency (2^(L-1)/s >= hi_freq) unannounced: when the first
   point already passes, the grid did not bracket the answer, and the choice
   is the highest grid point below Hi-NeRF's frequency; when none passes, the
@@ -143,10 +150,16 @@ def decide(rows, grid, threshold, hi_freq):
   'text'}), text '' for a plain pick and a sentence otherwise.
   """
   crit = lambda r: r.get("score", r["criterion"])
-  passing = [i for i, r in enumerate(rows) if crit(r) < threshold]
+  learned = [r for r in rows if not r.get("collapsed")]
+  if not learned:
+    raise RuntimeError(f"every grid point's Lo-NeRF collapsed ({len(rows)} points of "
+                       f"tune.grid): there is no frequency to choose; see the points' "
+                       "info.json (tune.lo_steps may be too few for this scene)")
+  passing = [i for i, r in enumerate(rows) if crit(r) < threshold and not r.get("collapsed")]
   freq = lambda L, s: 2.0 ** (L - 1) / s
+  dead = {(r["L"], r["scale"]) for r in rows if r.get("collapsed")}
   if not passing:
-    L, s = grid[-1]
+    L, s = [p for p in grid if p not in dead][-1]
     low = min(rows, key=crit)
     return {"L": L, "scale": s}, {"below_threshold": False, "text": (
         f"no grid point fell below the threshold {threshold:g} (lowest criterion "
@@ -156,7 +169,7 @@ def decide(rows, grid, threshold, hi_freq):
   pick = {"L": first["L"], "scale": first["scale"]}
   if passing[0] > 0:
     return pick, {"below_threshold": True, "text": ""}
-  below_hi = [(L, s) for L, s in grid if freq(L, s) < hi_freq]
+  below_hi = [(L, s) for L, s in grid if freq(L, s) < hi_freq and (L, s) not in dead]
   if freq(first["L"], first["scale"]) >= hi_freq and below_hi:
     L, s = below_hi[0]
     return {"L": L, "scale": s}, {"below_threshold": True, "text": (

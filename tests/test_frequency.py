@@ -195,3 +195,49 @@ def test_decide_never_returns_hi_frequency_silently():
   # a first point already below Hi-NeRF's frequency that passes: kept, with a warning
   chosen, note = tuning.decide(_rows([(8, 1, 3.0)]), grid[1:], 25.0, hi)
   assert chosen == {"L": 8, "scale": 1.0} and "may not reach high enough" in note["text"]
+
+
+def test_decide_never_chooses_a_collapsed_point():
+  grid = [(10, 1.0), (8, 1.0), (5, 1.0), (5, 32.0)]
+  hi = 2.0 ** 9
+  rows = _rows([(10, 1, 30.0), (8, 1, 20.0), (5, 1, 10.0), (5, 32, 5.0)])
+  rows[1]["collapsed"] = True   # below the threshold, but it learned nothing
+  chosen, note = tuning.decide(rows, grid, 25.0, hi)
+  assert chosen == {"L": 5, "scale": 1.0} and note["below_threshold"]
+  # none passes and the lowest-frequency point collapsed: the lowest that learned
+  rows = _rows([(10, 1, 40.0), (8, 1, 35.0), (5, 1, 30.0), (5, 32, 26.0)])
+  rows[3]["collapsed"] = True
+  chosen, _ = tuning.decide(rows, grid, 25.0, hi)
+  assert chosen == {"L": 5, "scale": 1.0}
+  # every point collapsed: no choice, said loudly
+  for r in rows:
+    r["collapsed"] = True
+  with pytest.raises(RuntimeError, match="every grid point's Lo-NeRF collapsed"):
+    tuning.decide(rows, grid, 25.0, hi)
+
+
+def test_tune_keeps_a_collapsed_point_and_passes_over_it(config, tmp_path, monkeypatch):
+  """The search goes on past a grid point whose Lo-NeRF collapsed: the point is
+  in the grid, marked, and the choice is the next one that passes."""
+  from halo_jax.stages import collapse
+  verdict = {"verdict": collapse.COLLAPSED, "window": [1, 2], "train_psnr": 10.0,
+             "constant_psnr": 10.0, "margin_db": 1.0}
+
+  def run_stages(c, wd, dataset):
+    info = {"wall_s": 1.0, "step": 4, "eval": {"psnr": 12.0}}
+    if c.lo.encoding.L == 6:
+      raise collapse.Collapsed("lo", verdict, {"lo": dict(info, learned=verdict)})
+    return {"lo": info}
+
+  crit = {6: 0.1, 3: 0.2}   # both below the threshold; the collapsed one first
+  monkeypatch.setattr(tuning.base, "trainer_of",
+                      lambda c, n: type("T", (), {"params_like": lambda *a: None})())
+  monkeypatch.setattr(tuning, "load", lambda *a: None)
+  monkeypatch.setattr(tuning, "lo_renderer", lambda c, d, s: c.lo.encoding.L)
+  monkeypatch.setattr(tuning, "criterion_of", lambda L, d, c: {
+      "criterion": crit[L], "per_pair": [], "criterion_plain": crit[L],
+      "criterion_warped": crit[L], "shift_px": [], "pair_kind": "orbit"})
+  config.tune.update(grid="6:1,3:8", threshold=1.0, relative=False)
+  res = tuning.tune(config, str(tmp_path), None, run_stages)
+  assert [g["collapsed"] for g in res["grid"]] == [True, False]
+  assert res["chosen"] == {"L": 3, "scale": 8.0}

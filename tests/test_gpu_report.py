@@ -5,6 +5,7 @@ import os
 
 import imageio.v3 as iio
 import numpy as np
+import pytest
 
 from experiments import gpu_report, rescore_renders
 
@@ -65,3 +66,32 @@ def test_rescore_reads_the_middle_panel(tmp_path, monkeypatch):
   # a panel off by one (the depth or the truth) would score far from it
   assert abs(expected - (-10 * np.log10(np.mean(truth[0] ** 2)))) > 5
   assert os.path.basename(next(iter(out["per_view"]))) == "v0"
+
+
+def test_rescore_picks_the_named_stage(tmp_path, monkeypatch):
+  """A three-stage method saves Lo's renders and Hi's: unnamed, the stage is
+  ambiguous and refused; named, only that stage's renders are read."""
+  truth = np.full((1, 8, 8, 3), 0.5, np.float32)
+  to8 = lambda x: (x * 255).round().astype(np.uint8)
+  for stage, value in (("lo", 0.1), ("hi", 0.45)):
+    d = tmp_path / "halo" / stage / "eval"
+    d.mkdir(parents=True)
+    (d / "metrics.json").write_text("{}")
+    panel = to8(np.full((8, 8, 3), value))
+    iio.imwrite(d / "v0.png", np.concatenate([to8(truth[0]), panel, panel], 1))
+
+  class Views:
+    names = ["v0"]
+    images = truth
+
+  monkeypatch.setattr(rescore_renders.checkpoint, "read_config",
+                      lambda p: type("C", (), {"data": type("D", (), {"root": ""})()})())
+  monkeypatch.setattr(rescore_renders.datasets, "load",
+                      lambda c, w: type("Data", (), {"test": Views()})())
+  monkeypatch.setattr(rescore_renders.evaluate.metrics, "lpips",
+                      lambda rgb, target: np.zeros(len(rgb)))
+  with pytest.raises(ValueError, match="expected one stage"):
+    rescore_renders.rescore_method(str(tmp_path / "halo"), "")
+  out = rescore_renders.rescore_method(str(tmp_path / "halo"), "", "hi")
+  expected = -10 * np.log10((to8(np.full(1, 0.45))[0] / 255.0 - 0.5) ** 2)
+  assert abs(out["psnr_8bit"] - expected) < 1e-3
