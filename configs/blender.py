@@ -6,16 +6,14 @@ Variants (the string after the colon):
                        CPU-sized models and a wall-clock budget (docs/benchmark.md)
   lego_oneside[_cpu]   the 14 one-side lego views (Lo-P.E. L=5, s=1)
   lego_all[_cpu]       all 100 training views (the upper reference)
-Append a method's name to any variant for that method on the same views
-(halo_jax.methods, docs/baselines.md): `_nerf_tuned` (alias `_nerf`: the same
-Hi model, stratified samples, no regulariser), `_nerf_paper`, `_freenerf`,
-`_halo+freenerf`; without one, HALO.
+The method is chosen apart from the scene (`--method=freenerf`, default
+halo; halo_jax.methods, docs/baselines.md).
 
 The scene folder defaults to $HALO_DATA/nerf_synthetic/<scene> with HALO_DATA
 defaulting to ./data; override with --config.data.root=PATH.
 """
 
-from halo_jax import defaults, methods
+from halo_jax import config_files, defaults
 
 # The paper's table "Training images for the 8 view setting".
 EIGHT_VIEWS = {
@@ -33,7 +31,7 @@ CPU_BUDGET_S = 600.0
 
 
 def get_config(arg: str = "lego_8view"):
-  parts, flags, method = methods.split_variant(arg)
+  parts, flags = config_files.split_flags(arg)
   cpu = "cpu" in flags
   scene, setting = parts[0], "_".join(parts[1:])
   c = defaults.base_config()
@@ -50,9 +48,9 @@ def get_config(arg: str = "lego_8view"):
     c.data.train_views = "all"
   else:
     raise ValueError(f"unknown variant {arg!r}: use <scene>_8view, lego_oneside or "
-                     "<scene>_all, optionally with _cpu and a method name")
+                     "<scene>_all, optionally with _cpu")
   if cpu:
     c.data.factor = 8
     c.data.test_views = "every:8"
     defaults.cpu_sized(c, CPU_BUDGET_S)
-  return methods.apply(c, method)
+  return c

@@ -11,15 +11,15 @@ saw. Few views leave this scene underconstrained, which is what HALO repairs:
 a NeRF fills the empty volume with floaters. 50 s of training per method, so
 that the five methods fit in ten minutes on 2 CPU cores.
 """
-from halo_jax import defaults, methods
+from halo_jax import defaults
 
 
-def get_config(method: str = "halo"):
-  """The scene as `method` (halo_jax.methods), HALO unless named."""
+def get_config():
+  """The scene; the method is chosen apart (--method, halo_jax/configure.py)."""
   c = defaults.base_config()
   c.data.update(kind="procedural", procedural_scene="lattice", factor=1,
                 train_views="r_0,r_13,r_26,r_39,r_52,r_65,r_78,r_91", test_views="every:16")
   c.data.procedural_size = 100
   defaults.cpu_sized(c, budget_s=50.0)
   c.eval.curve_views = 2
-  return methods.apply(c, method)
+  return c

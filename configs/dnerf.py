@@ -8,9 +8,8 @@ Variants (the string after the colon), for any D-NeRF scene by name
                  models and a wall-clock budget
   tiny[_cpu]     lego from the packed 100x100 copy on black
                  ($HALO_DATA/dnerf/tiny_dnerf_data.npz)
-Append a method's name for that method (halo_jax.methods): `_nerf_tuned`
-(alias `_nerf`: the same dynamic Hi model trained alone, without the Lo
-model's regulariser), `_freenerf`, `_halo+freenerf`, `_nerf_paper`.
+The method is chosen apart (`--method`, halo_jax.methods): nerf_tuned is the
+same dynamic Hi model trained alone, without the Lo model's regulariser.
 
 Lo and Hi are deformation fields, Lo with low frequencies in x and t, Hi
 with high ones; HALO on these scenes (no ray field) is in methods/halo.py.
@@ -19,7 +18,7 @@ Scene folders default to $HALO_DATA/dnerf/<scene> (HALO_DATA defaults to
 ./data); override with --config.data.root=PATH.
 """
 
-from halo_jax import defaults, methods
+from halo_jax import config_files, defaults
 
 CPU_BUDGET_S = 600.0
 
@@ -43,11 +42,11 @@ def _data_root(scene):
 
 
 def get_config(arg: str = "lego"):
-  parts, flags, method = methods.split_variant(arg)
+  parts, flags = config_files.split_flags(arg)
   cpu = "cpu" in flags
   if len(parts) != 1:
     raise ValueError(f"unknown variant {arg!r}: use <scene>[_cpu] (a D-NeRF scene name) or "
-                     "tiny[_cpu], optionally with a method name")
+                     "tiny[_cpu]")
   scene = parts[0]
   c = defaults.base_config()
   c.data.update(kind="dnerf", train_views="every:8", test_views="all", root=_data_root(scene))
@@ -64,4 +63,4 @@ def get_config(arg: str = "lego"):
       c[name].model.update(deform_width=64, deform_depth=3)
   _dynamic(c)
   c.eval.chunk = 10000
-  return methods.apply(c, method)
+  return c

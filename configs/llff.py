@@ -8,10 +8,9 @@ Variants (the string after the colon):
                    RegNeRF's split, the field's standard sparse LLFF protocol:
                    every 8th image held out, 3 / 6 / 9 training views spread
                    over the rest (any of the eight scenes; _cpu as above)
-Append a method's name (halo_jax.methods): `_halo_joint` (alias `_joint`:
-the paper's joint scheme, the ray field trained with Hi-NeRF), `_nerf_tuned`
-(alias `_nerf`: the Hi model alone, stratified samples), `_nerf_paper`,
-`_freenerf`.
+The method is chosen apart (`--method`, halo_jax.methods): `halo_joint` is
+the paper's joint scheme (the ray field trained with Hi-NeRF), `nerf_tuned`
+the Hi model alone with stratified samples.
 Other scenes: --config.data.root=.../nerf_llff_data/<scene> with your own
 --config.data.train_views / test_views (the paper's lists for flower, leaves
 and orchids are in FOUR_VIEWS).
@@ -23,7 +22,7 @@ data does not need.
 The scene folder defaults to $HALO_DATA/nerf_llff_data/<scene>.
 """
 
-from halo_jax import defaults, methods
+from halo_jax import config_files, defaults
 
 # The paper's table "Four training views and one validation view on LLFF".
 FOUR_VIEWS = {
@@ -47,13 +46,13 @@ def _views(scene, setting, arg):
     return FOUR_VIEWS[scene]
   if setting in REGNERF_VIEWS and scene in SCENES:
     return f"spread:{setting[0]}/{REGNERF_HOLD}", f"every:{REGNERF_HOLD}"
-  raise ValueError(f"unknown variant {arg!r}: use <scene>_4view[_cpu][_<method>] with scene in "
-                   f"{sorted(FOUR_VIEWS)}, or <scene>_{{3,6,9}}view[_cpu][_<method>] with scene "
+  raise ValueError(f"unknown variant {arg!r}: use <scene>_4view[_cpu] with scene in "
+                   f"{sorted(FOUR_VIEWS)}, or <scene>_{{3,6,9}}view[_cpu] with scene "
                    f"in {list(SCENES)}")
 
 
 def get_config(arg: str = "fern_4view"):
-  parts, flags, method = methods.split_variant(arg)
+  parts, flags = config_files.split_flags(arg)
   cpu = "cpu" in flags
   if len(parts) != 2:
     _views("", "", arg)
@@ -69,4 +68,4 @@ def get_config(arg: str = "fern_4view"):
   c.lo.precrop_steps = 0            # forward-facing: the scene fills the frame
   c.hi.precrop_steps = 0
   c.hi.joint.alpha_steps = 500 if cpu else 20000  # the joint sampler's window schedule
-  return methods.apply(c, method)
+  return c

@@ -5,8 +5,8 @@ Variants (the string after the colon):
                 (12,4) (12,12), test on (8,6) (8,10) (6,8) (10,8), at the
                 files' resolution
   <scene>_cpu   the same views, CPU-sized models and a wall-clock budget
-Append `_nerf_tuned` (alias `_nerf`) for the NeRF baseline: the same EPI
-radiance field with samples over the whole angle range and no ray field.
+`--method=nerf_tuned` is the NeRF baseline: the same EPI radiance field
+with samples over the whole angle range and no ray field.
 
 The field is the EPI radiance field ('hi'); HALO here is one stage, that
 field trained jointly with a low-frequency ray field that places its samples
@@ -17,7 +17,7 @@ opaque.
 The scene folder defaults to $HALO_DATA/stanford_lf/<scene>.
 """
 
-from halo_jax import defaults, methods
+from halo_jax import config_files, defaults
 
 TRAIN = "04_04,04_12,12_04,12_12"
 TEST = "08_06,08_10,06_08,10_08"
@@ -25,10 +25,10 @@ CPU_BUDGET_S = 600.0
 
 
 def get_config(arg: str = "knights"):
-  parts, flags, method = methods.split_variant(arg)
+  parts, flags = config_files.split_flags(arg)
   cpu = "cpu" in flags
   if len(parts) != 1:
-    raise ValueError(f"unknown variant {arg!r}: use <scene>[_cpu][_nerf_tuned]")
+    raise ValueError(f"unknown variant {arg!r}: use <scene>[_cpu]")
   c = defaults.base_config()
   c.data.update(kind="stanford_lf", factor=1, train_views=TRAIN, test_views=TEST,
                 white_background=False,
@@ -75,4 +75,4 @@ def get_config(arg: str = "knights"):
     # whatever the geometry. (The authors' colour sees only the lowest-
     # frequency sin/cos pair of (u, v).)
   c.baseline.num_samples = hi.sampler.num_samples  # the same field, samples everywhere
-  return methods.apply(c, method)
+  return c

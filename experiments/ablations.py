@@ -39,6 +39,7 @@ if __package__ in (None, ""):
   sys.path.insert(0, REPO)
 from experiments import benchmark, code_version, fronts_report, report_common, run_file, selection, suites  # pylint: disable=g-import-not-at-top
 from halo_jax import runs  # pylint: disable=g-import-not-at-top
+from halo_jax.configure import set_field  # pylint: disable=g-import-not-at-top
 
 FLAGS = flags.FLAGS
 
@@ -351,7 +352,7 @@ def configure(study: Study, scene: suites.Scene, variant: Variant, seed: int, sc
               results: str):
   c = benchmark.configure(_terms(study), scene, variant.method, seed, "time", scratch)
   for field, value in variant.overrides:
-    runs.set_field(c, field, value)
+    set_field(c, field, value)
   if study.budget == "time":
     return c
   c.budget_s = 0.0

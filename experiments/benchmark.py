@@ -30,6 +30,7 @@ if __package__ in (None, ""):  # run as a script: the repository root holds `exp
   sys.path.insert(0, REPO)
 from experiments import run_file, selection, suites  # pylint: disable=g-import-not-at-top
 from halo_jax import defaults, runs  # pylint: disable=g-import-not-at-top
+from halo_jax.configure import load as method_config, set_field  # pylint: disable=g-import-not-at-top
 
 FLAGS = flags.FLAGS
 flags.DEFINE_enum("suite", "cpu", sorted(suites.SUITES), "Suite to run.")
@@ -68,14 +69,14 @@ def configure(suite: suites.Suite, scene: suites.Scene, method: str, seed: int, 
               scratch: str):
   """The run's config: the scene's config as `method`, this seed and mode."""
   from halo_jax import pipeline  # pylint: disable=g-import-not-at-top
-  c = runs.load_config_as(scene.config, method)
+  c = method_config(scene.config, method)
   c.seed = seed
   if c.data.kind == "procedural" and not c.data.root:  # generated once, shared by runs
     c.data.root = os.path.join(scratch, "scenes",
                                f"{c.data.procedural_scene}_{c.data.procedural_size}")
   c.eval.front_s = tuple(suite.front_s)
   for field, value in suite.overrides + scene.overrides:
-    runs.set_field(c, field, value)
+    set_field(c, field, value)
   names = pipeline.needed(c, c.final_stage)
   shares = {n: c.budget_shares[n] for n in names}
   total = sum(shares.values())
@@ -115,8 +116,8 @@ def score_validation(workdir: str, record: dict, split: str) -> dict:
 
 def front_points(workdir: str, record: dict, with_lpips: bool) -> list:
   """The run's error-against-time front on all its held-out views
-  (halo_jax/evaluate/front.py), ending with its final state's scores."""
-  from halo_jax.evaluate import front  # pylint: disable=g-import-not-at-top
+  (halo_jax/front.py), ending with its final state's scores."""
+  from halo_jax import front  # pylint: disable=g-import-not-at-top
   last = list(record["stages"])[-1]
   final = {"at_s": record["wall_s"], "wall_s": record["wall_s"], "stage": last,
            "step": record["stages"][last]["step"], "final": True,

@@ -28,7 +28,8 @@ REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 if __package__ in (None, ""):
   sys.path.insert(0, REPO)
 from experiments import run_file, suites  # pylint: disable=g-import-not-at-top
-from halo_jax import calibration, defaults, methods, provenance, runs  # pylint: disable=g-import-not-at-top
+from halo_jax import calibration, defaults, provenance  # pylint: disable=g-import-not-at-top
+from halo_jax.configure import load as method_config, set_field  # pylint: disable=g-import-not-at-top
 
 FLAGS = flags.FLAGS
 
@@ -60,10 +61,10 @@ VIEWS = {"test": (SCENES, "frequency", "frequency_calibration"),
 
 
 def configure(scene, lo_steps, scratch, validation=False):
-  c = methods.apply(runs.load_config(scene.config), "halo")
+  c = method_config(scene.config, "halo")
   if validation:
     for field, value in suites.VALIDATION_VIEWS + tuple(scene.overrides):
-      runs.set_field(c, field, value)
+      set_field(c, field, value)
   if c.data.kind == "procedural" and not c.data.root:
     c.data.root = os.path.join(scratch, "scenes",
                                f"{c.data.procedural_scene}_{c.data.procedural_size}")

@@ -22,7 +22,7 @@ from absl import app, flags, logging
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 if __package__ in (None, ""):
   sys.path.insert(0, REPO)
-from halo_jax import methods, runs  # pylint: disable=g-import-not-at-top
+from halo_jax import configure, runs  # pylint: disable=g-import-not-at-top
 from experiments import run_file  # pylint: disable=g-import-not-at-top
 
 FLAGS = flags.FLAGS
@@ -44,9 +44,9 @@ def define_flags():
 
 
 def config_for(scene: str, scheme: str, budget_s: float):
-  c = methods.apply(runs.load_config(f"configs/dnerf.py:{scene}_cpu"), "halo")
+  c = configure.load(f"configs/dnerf.py:{scene}_cpu", "halo")
   for field, value in SCHEMES[scheme]:
-    runs.set_field(c, field, value)
+    configure.set_field(c, field, value)
   c.data.test_split = "val"
   c.budget_s = budget_s
   c.eval.curve_views = 2

@@ -1,6 +1,6 @@
 """Error-against-time fronts in the benchmark's report: per scene, each
 method's held-out PSNR (and LPIPS) at the training seconds its run saved
-(halo_jax/evaluate/front.py), the seconds each needs to reach nerf_tuned's
+(halo_jax/front.py), the seconds each needs to reach nerf_tuned's
 final PSNR, its figures, and the README's fronts table.
 
 A record's front is its list of points {'at_s', 'wall_s', 'psnr', 'lpips',

@@ -14,7 +14,7 @@ import sys
 from absl import app, flags
 
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
-from halo_jax import methods, pipeline, runs  # pylint: disable=g-import-not-at-top
+from halo_jax import configure, pipeline  # pylint: disable=g-import-not-at-top
 from halo_jax.registry import ConfigError  # pylint: disable=g-import-not-at-top
 
 flags.DEFINE_bool("check", False, "Only compare with the page; exit 1 if it differs.")
@@ -56,11 +56,11 @@ def resolve(spec):
   ran, refused = {}, {}
   for name in ORDER:
     try:
-      c = runs.load_config_as(spec, name)
+      c = configure.load(spec, name)
     except ConfigError as e:
       refused[name] = str(e)
       continue
-    ran[name] = (runs.dotted_fields(c.to_dict()), set(pipeline.needed(c)))
+    ran[name] = (configure.dotted_fields(c.to_dict()), set(pipeline.needed(c)))
   return ran, refused
 
 

@@ -52,6 +52,11 @@ sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
 from experiments import suites  # noqa: E402
 from halo_jax import datasets, defaults, pipeline, provenance, runs  # noqa: E402
 
+try:  # the one loader; a worktree of a commit older than it has runs.load_config_as
+  from halo_jax.configure import load as load_as_method  # noqa: E402
+except ImportError:
+  load_as_method = runs.load_config_as  # pylint: disable=no-member
+
 try:  # a worktree of an older commit runs this copy, without code_version's fingerprints
   from experiments import code_version  # noqa: E402
 except ImportError:
@@ -116,7 +121,7 @@ def first_views(views, k):
 
 def run_one(spec, method, workdir):
   """{'losses': {stage: [[step, loss], ...]}, 'psnr': [per held-out view]}."""
-  c = step_capped(runs.load_config_as(spec, method), FLAGS.steps)
+  c = step_capped(load_as_method(spec, method), FLAGS.steps)
   ds = datasets.load(c.data, workdir)
   ds = dataclasses.replace(ds, test=first_views(ds.test, FLAGS.views))
   infos = pipeline.run(c, workdir, ds)

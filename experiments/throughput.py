@@ -11,6 +11,7 @@ geometry (throughput does not depend on the weights). Writes one result file,
 results/throughput/<config>/<machine>/<UTC time>_<commit>.json, committed so
 that the next measurement is compared with it (experiments/throughput_report.py).
 """
+import copy
 import functools
 import os
 import sys
@@ -27,7 +28,8 @@ if __package__ in (None, ""):  # run as a script: the repository root holds `exp
   sys.path.insert(0, REPO)
 from experiments import run_file, throughput_report, trace_summary  # pylint: disable=g-import-not-at-top
 from halo_jax import camera, geometry, models, provenance, ray_fields  # pylint: disable=g-import-not-at-top
-from halo_jax import raycast, runs, trig  # pylint: disable=g-import-not-at-top
+from halo_jax import configure, raycast  # pylint: disable=g-import-not-at-top
+from halo_jax.cli import config_of_flags  # pylint: disable=g-import-not-at-top
 from halo_jax.rays import Pixels, Rays, Targets  # pylint: disable=g-import-not-at-top
 from halo_jax.stages import batches, radiance, ray, terms  # pylint: disable=g-import-not-at-top
 from halo_jax.stages import step as train_step  # pylint: disable=g-import-not-at-top
@@ -67,10 +69,10 @@ def _time(fn, *args):
 
 def _flops(fn, *args):
   """XLA's flop count of fn(*args) (fn jitted here, whatever it calls jitted
-  inside), traced with XLA's sin and cos: the polynomials that replace them
-  (halo_jax/trig.py) do more multiply-adds, which are not useful work."""
-  with trig.using("xla"):
-    cost = jax.jit(fn).lower(*args).compile().cost_analysis()
+  inside). fn is built from models with XLA's sin and cos (as_xla): the
+  polynomials that replace them (halo_jax/trig.py) do more multiply-adds,
+  which are not useful work."""
+  cost = jax.jit(fn).lower(*args).compile().cost_analysis()
   cost = cost[0] if isinstance(cost, (list, tuple)) else cost
   return float(cost.get("flops", 0.0))
 
@@ -92,7 +94,17 @@ def _rays(n, key=0):
   return np.asarray(o), np.asarray(d)
 
 
-def step_throughput(loss_fn, cfg, params, data, rays_per_step, samples_per_ray):
+def as_xla(config):
+  """A copy of config whose models evaluate sin and cos with XLA's own
+  functions: the form FLOPs are counted on."""
+  c = copy.deepcopy(config)
+  c.sin_cos = "xla"
+  return c
+
+
+def step_throughput(loss_fn, cfg, params, data, rays_per_step, samples_per_ray, flops_loss_fn):
+  """Times loss_fn's training step; its FLOPs are counted on flops_loss_fn,
+  the same loss on models with XLA's sin and cos (as_xla)."""
   tx = train_step.optimizer(cfg)
   step = train_step.make_step(loss_fn, tx, cfg.microbatches)
   params = jax.tree_util.tree_map(jnp.copy, params)  # the step donates its input
@@ -100,7 +112,7 @@ def step_throughput(loss_fn, cfg, params, data, rays_per_step, samples_per_ray):
   key = jax.random.PRNGKey(0)
   # XLA counts a scan's body once, so FLOPs come from the whole-batch step:
   # the parts do the same arithmetic.
-  flops = _flops(train_step.make_step(loss_fn, tx), state, data, key)
+  flops = _flops(train_step.make_step(flops_loss_fn, tx), state, data, key)
   fn = lambda s: step(s, data, key)
   # Donation consumes the state, so time chains of steps.
   state, _, _ = fn(state)
@@ -119,13 +131,16 @@ def step_throughput(loss_fn, cfg, params, data, rays_per_step, samples_per_ray):
   return r
 
 
-def render_throughput(c, rf, rf_params, o, d):
-  """A held-out render chunk of the Hi field (forward only, guided by `rf`)."""
+def render_throughput(c, rf, rf_params, o, d, rf_xla):
+  """A held-out render chunk of the Hi field (forward only, guided by `rf`;
+  its FLOPs counted with `rf_xla` and an Hi field of as_xla(c))."""
   near, far = c.data.near, c.data.far
   model = models.nerf_from_config(c, "hi")
-  ev = {b: raycast.make_eval_fn(model, c.hi.sampler, near=near, far=far, white_background=True,
-                                guide_model=rf, radius=4.03, block_rays=b)
-        for b in (0, c.eval.block_rays)}
+  eval_fn = lambda m, g, b: raycast.make_eval_fn(  # pylint: disable=unnecessary-lambda-assignment
+      m, c.hi.sampler, near=near, far=far, white_background=True, guide_model=g, radius=4.03,
+      block_rays=b)
+  ev = {c.eval.block_rays: eval_fn(model, rf, c.eval.block_rays),
+        0: eval_fn(models.nerf_from_config(as_xla(c), "hi"), rf_xla, 0)}
   hp = models.init_nerf(model, c.hi.model.kind, 0)
   chunk = c.eval.chunk
   oc, dc = jnp.asarray(o[:chunk]), jnp.asarray(d[:chunk])
@@ -145,20 +160,21 @@ def render_throughput(c, rf, rf_params, o, d):
 def main(argv):
   del argv
   logging.set_verbosity(logging.WARNING)
-  with trig.using(FLAGS.config.sin_cos):  # the steps are traced as the config says
-    measure_all(FLAGS.config)
+  config = config_of_flags(FLAGS["config"], "halo")
+  measure_all(config)
 
 
 def measure_all(c):
-  """Times each stage's step and a render chunk of config `c`; writes and
-  prints the result file."""
-  overrides = runs.dotted_fields(config_flags.get_override_values(FLAGS["config"]))
+  """Times each stage's step and a render chunk of config `c` (HALO's); writes
+  and prints the result file."""
+  overrides = configure.dotted_fields(config_flags.get_override_values(FLAGS["config"]))
   near, far = c.data.near, c.data.far
   n_data = 80000
   o, d = _rays(n_data)
   rgb = np.random.default_rng(0).uniform(size=(n_data, 3)).astype(np.float32)
   index = {"crop_idx": np.arange(n_data, dtype=np.int32), "crop_pix": np.arange(64, dtype=np.int32),
-           "view_pixels": np.full((), n_data, np.int32)}
+           "view_pixels": np.full((), n_data, np.int32),
+           "fg_idx": np.arange(n_data, dtype=np.int32)}   # Lo's foreground start draws from it
   pixels = Pixels(Rays(o, d), rgb, index)
   peak = matmul_peak(FLAGS.peak_n)  # measured again at the end; the larger is the peak
   results = {"peak_gflops": peak, "device": str(jax.devices()[0]), "steps": {}}
@@ -168,42 +184,44 @@ def measure_all(c):
       return
     cfg = config[name]
     model = models.nerf_from_config(config, name)
-    guide_model = guide_params = None
+    guide_model = guide_xla = guide_params = None
     if cfg.sampler.kind == "depth_guided":
-      guide_model, guide_params = guide
+      guide_model, guide_xla, guide_params = guide
     prepared = {}
     if "empty" in cfg and cfg.empty.weight > 0:
       prepared["empty"] = terms.EmptyBank(Rays(o, d), np.zeros(n_data, np.float32),
                                           np.arange(n_data, dtype=np.int32))
     data = batches.StageData(pixels, prepared, guide_params)
-    lf = functools.partial(radiance.loss_fn, s=radiance.loss_settings(
-        cfg, model, near=near, far=far, white=True, radius=4.03, guide_model=guide_model))
+    loss = lambda m, g: functools.partial(radiance.loss_fn, s=radiance.loss_settings(  # pylint: disable=unnecessary-lambda-assignment
+        cfg, m, near=near, far=far, white=True, radius=4.03, guide_model=g))
+    lf, lf_xla = loss(model, guide_model), loss(models.nerf_from_config(as_xla(config), name),
+                                                guide_xla)
     samples = cfg.sampler.num_samples + (cfg.sampler.num_coarse
                                          if cfg.sampler.kind in ("hierarchical", "coarse_fine")
                                          else 0)
     params = {"nerf": models.init_nerf(model, cfg.model.kind, 0)}
-    r = step_throughput(lf, cfg, params, jax.device_put(data), cfg.batch_rays, samples)
+    r = step_throughput(lf, cfg, params, jax.device_put(data), cfg.batch_rays, samples, lf_xla)
     results["steps"][label] = r
 
   nerf_step("lo", c, "lo")
-  rf = ray_fields.ray_field_from_config(c.ray, near, far)
+  rf = ray_fields.ray_field_from_config(c.ray, near, far, c.sin_cos)
+  rf_xla = ray_fields.ray_field_from_config(c.ray, near, far, "xla")
   rf_params = {"ray": ray_fields.init_ray_field(rf, 0)}
   targets = Targets(Rays(o, d), np.full(n_data, 4.0, np.float32), np.ones(n_data, np.float32))
   rdata = ray.RayStageData(targets, targets)
   n_rand = int(round(c.ray.batch_rays * c.ray.random_fraction))
-  lf = functools.partial(ray.loss_fn, model=rf, guide_geometry=geometry.Geometry.SPHERE,
-                         radius=4.03, far=far,
-                         n_train=c.ray.batch_rays - n_rand, n_random=n_rand)
+  ray_loss = lambda m: functools.partial(  # pylint: disable=unnecessary-lambda-assignment
+      ray.loss_fn, model=m, guide_geometry=geometry.Geometry.SPHERE, radius=4.03, far=far,
+      n_train=c.ray.batch_rays - n_rand, n_random=n_rand)
   if "ray" in FLAGS.measure:
-    results["steps"]["ray"] = step_throughput(lf, c.ray, rf_params, jax.device_put(rdata),
-                                              c.ray.batch_rays, 1)
-  nerf_step("hi", c, "hi", guide=(rf, rf_params["ray"]))
+    results["steps"]["ray"] = step_throughput(ray_loss(rf), c.ray, rf_params,
+                                              jax.device_put(rdata), c.ray.batch_rays, 1,
+                                              ray_loss(rf_xla))
+  nerf_step("hi", c, "hi", guide=(rf, rf_xla, rf_params["ray"]))
   # the baseline with the command line's overrides too (a dtype, a size)
-  nerf_step("nerf", runs.load_config_as(
-      config_flags.get_config_filename(FLAGS["config"]), "nerf_tuned",
-      overrides), "hi")
+  nerf_step("nerf", config_of_flags(FLAGS["config"], "nerf_tuned"), "hi")
   if "render" in FLAGS.measure:  # held-out rendering with the Hi field
-    results["steps"]["render"] = render_throughput(c, rf, rf_params["ray"], o, d)
+    results["steps"]["render"] = render_throughput(c, rf, rf_params["ray"], o, d, rf_xla)
   peak = results["peak_gflops"] = max(peak, matmul_peak(FLAGS.peak_n))
   # context for bfloat16 layers; every share stays against the fp32 peak
   results["peak_bf16_gflops"] = matmul_peak(FLAGS.peak_n, jnp.bfloat16)

@@ -19,7 +19,7 @@ from absl import app, flags, logging
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 if __package__ in (None, ""):
   sys.path.insert(0, REPO)
-from halo_jax import runs  # pylint: disable=g-import-not-at-top
+from halo_jax import configure, runs  # pylint: disable=g-import-not-at-top
 from experiments import run_file  # pylint: disable=g-import-not-at-top
 
 FLAGS = flags.FLAGS
@@ -45,14 +45,14 @@ def result_path(config_spec):
 def run_all(path):
   data = run_file.read(path)
   done = {(r["method"], r["k"]) for r in data["runs"]}
-  base = runs.load_config(FLAGS.config)
+  base = configure.load_scene(FLAGS.config)
   views = base.data.train_views.split(",")
   for k in (int(x) for x in FLAGS.counts):
     for method in FLAGS.methods:
       if (method, k) in done:
         print(f"done  {method} k={k}")
         continue
-      c = runs.load_config_as(FLAGS.config, method)
+      c = configure.load(FLAGS.config, method)
       c.data.train_views = ",".join(views[:k])
       c.budget_s = FLAGS.budget_s
       c.eval.curve_views = 2

@@ -45,3 +45,13 @@ def resolve_argv(argv=None, flag: str = "--config"):
     elif arg == flag and i + 1 < len(argv):
       argv[i + 1] = resolve(argv[i + 1])
   return argv
+
+
+def split_flags(variant: str, flags=("cpu",)):
+  """'lego_8view_cpu' -> (['lego', '8view'], {'cpu'}): a config file's
+  variant as its '_'-separated parts, with the trailing ones in `flags` taken
+  off. A method is not part of a variant (halo_jax/configure.py)."""
+  parts, found = variant.split("_") if variant else [], set()
+  while parts and parts[-1] in flags:
+    found.add(parts.pop())
+  return parts, found

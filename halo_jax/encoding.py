@@ -46,13 +46,14 @@ def _by_frequency(x, freqs):
   return jnp.matmul(x, jnp.asarray(matrix, x.dtype), precision=jax.lax.Precision.HIGHEST)
 
 
-def sin_cos_of_scaled(x, freqs: np.ndarray):
+def sin_cos_of_scaled(x, freqs: np.ndarray, sin_cos: str = "polynomial"):
   """sin(x f) and cos(x f) for every frequency, with the compensated angle.
 
   Args:
     x: [..., D] coordinates (fp32 gets the compensated form unless every
       frequency is a power of two; other dtypes the direct one).
     freqs: [L] frequencies (host float64).
+    sin_cos: how sin and cos are evaluated (trig.KINDS; static).
 
   Returns:
     [..., 2, L * D]: the sines, then the cosines, each ordered (k, dim).
@@ -61,20 +62,21 @@ def sin_cos_of_scaled(x, freqs: np.ndarray):
   powers_of_two = np.all(np.frexp(freqs)[0] == 0.5)
   if x.dtype != jnp.float32 or powers_of_two:
     # x * 2^k is exact in any binary float: no compensation needed.
-    return trig.sin_cos_stacked(_by_frequency(x, freqs))
+    return trig.sin_cos_stacked(_by_frequency(x, freqs), sin_cos)
   f_hi, f_lo = _split_host(freqs)
   x_hi, x_lo = _split(x)
   a1 = _by_frequency(x_hi, f_hi)                                  # exact: 12 x 12 bits
   b = _by_frequency(x_lo, f_hi) + _by_frequency(x, f_lo)          # |b| <= |angle| 2^-11
-  sb, cb = trig.sin_cos(b)
+  sb, cb = trig.sin_cos(b, sin_cos)
   # sin(a1 + b) = sin a1 cos b + cos a1 sin b, and the cosine a quarter turn on
   q = np.array([[0], [1]], np.int32)
   a1 = a1[..., None, :]
-  return (trig.sin_quadrant(a1, q) * cb[..., None, :]
-          + trig.sin_quadrant(a1, q + 1) * sb[..., None, :])
+  return (trig.sin_quadrant(a1, q, sin_cos) * cb[..., None, :]
+          + trig.sin_quadrant(a1, q + 1, sin_cos) * sb[..., None, :])
 
 
-def positional_encoding(x, num_freqs: int, scale: float = 1.0, include_input: bool = True):
+def positional_encoding(x, num_freqs: int, scale: float = 1.0, include_input: bool = True,
+                        sin_cos: str = "polynomial"):
   """gamma(x; L, s) = [x / s, sin(2^k x / s), cos(2^k x / s)] for k = 0..L-1.
 
   The features are ordered (k, dim) with all sines first, then all cosines.
@@ -85,12 +87,13 @@ def positional_encoding(x, num_freqs: int, scale: float = 1.0, include_input: bo
     scale: s, every input is divided by s before encoding (s > 1 lowers all
       frequencies).
     include_input: prepend x / s to the features.
+    sin_cos: how sin and cos are evaluated (trig.KINDS; static).
 
   Returns:
     [..., D * (2 L + include_input)] features.
   """
   freqs = 2.0 ** np.arange(num_freqs, dtype=np.float64) / float(scale)
-  both = sin_cos_of_scaled(x, freqs)
+  both = sin_cos_of_scaled(x, freqs, sin_cos)
   feats = [both.reshape(*both.shape[:-2], -1)]
   if include_input:
     feats = [x / scale] + feats
@@ -145,18 +148,20 @@ def fourier_std_from_angular(std: float, span: float) -> float:
   return std * span / (4.0 * np.pi)
 
 
-def gaussian_fourier_features(x, matrix: np.ndarray, include_input: bool = True):
+def gaussian_fourier_features(x, matrix: np.ndarray, include_input: bool = True,
+                              sin_cos: str = "polynomial"):
   """[x, sin(2 pi x B), cos(2 pi x B)] for a fixed B [D, F].
 
   Args:
     x: [..., D] coordinates.
     matrix: B [D, F] (host array; see fourier_matrix).
     include_input: prepend x.
+    sin_cos: how sin and cos are evaluated (trig.KINDS; static).
 
   Returns:
     [..., D * include_input + 2 F] features.
   """
   angles = 2.0 * np.pi * (x @ jnp.asarray(matrix, x.dtype))
-  both = trig.sin_cos_stacked(angles)
+  both = trig.sin_cos_stacked(angles, sin_cos)
   feats = [both.reshape(*both.shape[:-2], -1)]
   return jnp.concatenate(([x] if include_input else []) + feats, axis=-1)

@@ -50,10 +50,10 @@ def band_weights(band_fraction, num_bands: int, dims: int):
   return jnp.repeat(jnp.clip(p - k, 0.0, 1.0), dims)
 
 
-def masked_positional_encoding(x, freqs, scale, band_fraction):
+def masked_positional_encoding(x, freqs, scale, band_fraction, sin_cos="polynomial"):
   """positional_encoding(x) with FreeNeRF's mask on its sin and cos halves
   (no mask when band_fraction is None)."""
-  pe = encoding.positional_encoding(x, freqs, scale)
+  pe = encoding.positional_encoding(x, freqs, scale, sin_cos=sin_cos)
   if band_fraction is None:
     return pe
   w = band_weights(band_fraction, freqs, x.shape[-1])
@@ -128,6 +128,7 @@ class NeRFMLP(nn.Module):
   density_bias: float = -1.0
   density_activation: str = "softplus"
   compute_dtype: str = "float32"
+  sin_cos: str = "polynomial"   # the encodings' sin and cos (trig.KINDS)
 
   @nn.compact
   def __call__(self, points, viewdirs=None, density_noise_key=None, density_noise=0.0,
@@ -141,10 +142,10 @@ class NeRFMLP(nn.Module):
     shape = points.shape[:-1]
     points = _rows(points)
     x = encoding.over_points(lambda p: masked_positional_encoding(
-        p, self.pos_freqs, self.pos_scale, band_fraction), points)
+        p, self.pos_freqs, self.pos_scale, band_fraction, self.sin_cos), points)
     if self.base_freqs > 0:
       x = jnp.concatenate([encoding.over_points(lambda p: encoding.positional_encoding(
-          p, self.base_freqs, self.base_scale), points), x], -1)
+          p, self.base_freqs, self.base_scale, sin_cos=self.sin_cos), points), x], -1)
     h = MLP(self.width, self.depth, tuple(self.skips), self.compute_dtype, name="trunk")(x)
     sigma = _density(h, density_noise_key, density_noise, self.density_bias, shape,
                      self.density_activation)
@@ -152,7 +153,8 @@ class NeRFMLP(nn.Module):
       feat = dense(self.width, self.compute_dtype, "bottleneck")(h)
       viewdirs = _rows(jnp.broadcast_to(viewdirs, (*shape, viewdirs.shape[-1])))
       d = encoding.over_points(
-          lambda v: masked_positional_encoding(v, self.dir_freqs, 1.0, band_fraction), viewdirs)
+          lambda v: masked_positional_encoding(v, self.dir_freqs, 1.0, band_fraction,
+                                               self.sin_cos), viewdirs)
       h = nn.relu(dense(self.width // 2, self.compute_dtype, "view")(
           jnp.concatenate([feat, d], -1)))
     rgb = nn.sigmoid(nn.Dense(3, dtype=jnp.float32, name="rgb")(h))
@@ -192,6 +194,7 @@ class DeformNeRF(nn.Module):
   deform_depth: int = 4
   density_activation: str = "softplus"
   compute_dtype: str = "float32"
+  sin_cos: str = "polynomial"   # the encodings' sin and cos (trig.KINDS)
 
   @nn.compact
   def __call__(self, points, viewdirs=None, density_noise_key=None, density_noise=0.0,
@@ -208,12 +211,15 @@ class DeformNeRF(nn.Module):
     x, times = _rows(points), _rows(jnp.broadcast_to(times, (*shape, 1)))
     def encode(row):  # one point's (x, y, z, t)
       point, time = row[:3], row[3:]
-      feats = [masked_positional_encoding(point, self.pos_freqs, self.pos_scale, band_fraction),
-               masked_positional_encoding(time, self.time_freqs, self.time_scale, band_fraction)]
+      feats = [masked_positional_encoding(point, self.pos_freqs, self.pos_scale, band_fraction,
+                                          self.sin_cos),
+               masked_positional_encoding(time, self.time_freqs, self.time_scale, band_fraction,
+                                          self.sin_cos)]
       if self.base_freqs > 0:
-        feats = [encoding.positional_encoding(point, self.base_freqs, self.base_scale),
+        feats = [encoding.positional_encoding(point, self.base_freqs, self.base_scale,
+                                              sin_cos=self.sin_cos),
                  encoding.positional_encoding(time, self.base_time_freqs,
-                                              self.base_time_scale)] + feats
+                                              self.base_time_scale, sin_cos=self.sin_cos)] + feats
       return jnp.concatenate(feats, -1)
     h = MLP(self.deform_width, self.deform_depth, (), self.compute_dtype, name="deform")(
         encoding.over_points(encode, jnp.concatenate([x, times], -1)))
@@ -225,7 +231,8 @@ class DeformNeRF(nn.Module):
                         use_viewdirs=self.use_viewdirs, dir_freqs=self.dir_freqs,
                         density_bias=self.density_bias,
                         density_activation=self.density_activation,
-                        compute_dtype=self.compute_dtype, name="canonical")
+                        compute_dtype=self.compute_dtype, sin_cos=self.sin_cos,
+                        name="canonical")
     return canonical(points + offset, viewdirs, density_noise_key, density_noise, band_fraction)
 
 
@@ -250,6 +257,7 @@ class EPINeRF(nn.Module):
   skips: Sequence[int] = (4,)
   density_bias: float = -1.0
   compute_dtype: str = "float32"   # as in NeRFMLP
+  sin_cos: str = "polynomial"      # as in NeRFMLP
 
   @nn.compact
   def __call__(self, points, viewdirs, density_noise_key=None, density_noise=0.0):
@@ -262,16 +270,18 @@ class EPINeRF(nn.Module):
     x = jnp.concatenate([
         encoding.gaussian_fourier_features(
             points[..., :2], encoding.fourier_matrix(
-                self.seed + encoding.FourierStream.EPI_ST, 2, self.st_features, self.st_std)),
+                self.seed + encoding.FourierStream.EPI_ST, 2, self.st_features, self.st_std),
+            sin_cos=self.sin_cos),
         encoding.gaussian_fourier_features(
             points[..., 2:], encoding.fourier_matrix(
                 self.seed + encoding.FourierStream.EPI_THETA, 1, self.theta_features,
-                self.theta_std))], -1)
+                self.theta_std), sin_cos=self.sin_cos)], -1)
     h = MLP(self.width, self.depth, tuple(self.skips), self.compute_dtype, name="trunk")(x)
     sigma = _density(h, density_noise_key, density_noise, self.density_bias, shape)
     v = encoding.gaussian_fourier_features(
         viewdirs, encoding.fourier_matrix(self.seed + encoding.FourierStream.EPI_UV, 2,
-                                          self.uv_features, self.uv_std))
+                                          self.uv_features, self.uv_std),
+        sin_cos=self.sin_cos)
     feat = dense(self.width, self.compute_dtype, "bottleneck")(h)
     h = nn.relu(dense(self.width // 2, self.compute_dtype, "view")(
         jnp.concatenate([feat, v], -1)))
@@ -288,7 +298,7 @@ def _nerf_kwargs(config, name):
                     use_viewdirs=m.use_viewdirs, dir_freqs=m.dir_freqs,
                     density_bias=m.density_bias,
                     density_activation=m.density_activation,
-                    compute_dtype=m.compute_dtype)
+                    compute_dtype=m.compute_dtype, sin_cos=config.get("sin_cos", "polynomial"))
 
 
 def _static_nerf(config, name):
@@ -312,7 +322,7 @@ def _epi_nerf(config, name):
                  theta_features=f.theta_features, uv_std=f.uv_std,
                  uv_features=f.uv_features, seed=f.seed, width=m.width, depth=m.depth,
                  skips=tuple(m.skips), density_bias=m.density_bias,
-                 compute_dtype=m.compute_dtype)
+                 compute_dtype=m.compute_dtype, sin_cos=config.get("sin_cos", "polynomial"))
 
 
 @dataclasses.dataclass(frozen=True)

@@ -12,7 +12,7 @@ import copy
 import json
 import os
 
-from halo_jax import datasets, parallel, provenance, stages, trig, tuning, validate
+from halo_jax import datasets, parallel, provenance, stages, tuning, validate
 from halo_jax import workdir_lock
 from halo_jax.stages import base, collapse, metrics_log
 from halo_jax.stages.order import needed, parse_stages, stage_names
@@ -78,7 +78,7 @@ def run(config, workdir: str, dataset=None, pacer=None) -> dict:
   validate.validate(config)
   # In a multi-process job the processes share the workdir; process 0 holds it.
   held = workdir_lock.hold(workdir) if parallel.is_primary() else contextlib.nullcontext()
-  with held, trig.using(config.sin_cos):  # every step is traced inside
+  with held:
     return _run(config, workdir, dataset, pacer)
 
 

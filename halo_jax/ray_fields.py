@@ -26,12 +26,13 @@ class RayField(nn.Module):
   skips: Sequence[int] = (4,)
   near: float = 2.0
   far: float = 6.0
+  sin_cos: str = "polynomial"   # the encoding's sin and cos (trig.KINDS)
 
   @nn.compact
   def __call__(self, entry_points, directions):
     """Args: entry_points [..., 3], directions [..., 3]. Returns depth [...], acc [...]."""
     shape = entry_points.shape[:-1]
-    pe = lambda p: encoding.positional_encoding(p, self.freqs, self.scale)
+    pe = lambda p: encoding.positional_encoding(p, self.freqs, self.scale, sin_cos=self.sin_cos)
     x = jnp.concatenate([encoding.over_points(pe, _rows(entry_points)),
                          encoding.over_points(pe, _rows(directions))], -1)
     h = MLP(self.width, self.depth, tuple(self.skips), name="trunk")(x)
@@ -72,6 +73,7 @@ class EPIRayField(nn.Module):
   skips: Sequence[int] = ()
   uv_std: float = 0.0
   color: bool = False
+  sin_cos: str = "polynomial"   # the encoding's sin and cos (trig.KINDS)
 
   @nn.compact
   def __call__(self, rays):
@@ -79,7 +81,7 @@ class EPIRayField(nn.Module):
     (tau [...], rgb [..., 3])."""
     rows = _rows(rays)
     matrix = ray_field_matrix(self.seed, self.num_features, self.std, self.uv_std)
-    x = encoding.gaussian_fourier_features(rows, matrix)
+    x = encoding.gaussian_fourier_features(rows, matrix, sin_cos=self.sin_cos)
     h = MLP(self.width, self.depth, tuple(self.skips), name="trunk")(x)
     tau = nn.sigmoid(nn.Dense(1, name="head")(h)[..., 0]) * 1.002 - 0.001
     tau = tau.reshape(rays.shape[:-1])
@@ -91,12 +93,13 @@ class EPIRayField(nn.Module):
     return tau, rgb.reshape(*rays.shape[:-1], 3)
 
 
-def epi_ray_field_from_config(joint_cfg):
-  """EPIRayField of a stage's `joint` config."""
+def epi_ray_field_from_config(joint_cfg, sin_cos: str = "polynomial"):
+  """EPIRayField of a stage's `joint` config; sin_cos: the run config's."""
   m = joint_cfg.model
   return EPIRayField(std=joint_cfg.std, num_features=joint_cfg.num_features,
                      seed=joint_cfg.seed, width=m.width, depth=m.depth, skips=tuple(m.skips),
-                     uv_std=joint_cfg.uv_std, color=joint_cfg.color_weight > 0)
+                     uv_std=joint_cfg.uv_std, color=joint_cfg.color_weight > 0,
+                     sin_cos=sin_cos)
 
 
 def guide_radius(ray_cfg, dataset) -> float:
@@ -108,11 +111,11 @@ def guide_radius(ray_cfg, dataset) -> float:
   return float(ray_cfg.radius or dataset.radius)
 
 
-def ray_field_from_config(cfg, near, far):
-  """RayField from a ray-field config (encoding, model)."""
+def ray_field_from_config(cfg, near, far, sin_cos: str = "polynomial"):
+  """RayField from a ray-field config (encoding, model); sin_cos: the run config's."""
   m = cfg.model
   return RayField(freqs=cfg.encoding.L, scale=cfg.encoding.scale, width=m.width,
-                  depth=m.depth, skips=tuple(m.skips), near=near, far=far)
+                  depth=m.depth, skips=tuple(m.skips), near=near, far=far, sin_cos=sin_cos)
 
 
 def init_ray_field(model, seed: int):

@@ -5,64 +5,11 @@ experiments/benchmark.py: the record
 holds the held-out metrics (mean and per view), the held-out PSNR curve
 against training seconds, each stage's steps and seconds, and provenance.
 """
-import importlib.util
 import json
 import os
 
-from halo_jax import config_files, pipeline, provenance
+from halo_jax import pipeline, provenance
 from halo_jax.stages import collapse
-
-
-def load_config(spec: str):
-  """'configs/blender.py:lego_8view_cpu' -> that ConfigDict (the path as
-  given, else the shipped config of that name: config_files.resolve)."""
-  path, _, variant = config_files.resolve(spec).partition(":")
-  if not os.path.exists(path):
-    raise FileNotFoundError(f"config file {spec.partition(':')[0]!r} not found")
-  module_spec = importlib.util.spec_from_file_location(
-      "halo_config_" + os.path.basename(path)[:-3], path)
-  module = importlib.util.module_from_spec(module_spec)
-  module_spec.loader.exec_module(module)
-  return module.get_config(variant) if variant else module.get_config()
-
-
-def load_config_as(spec: str, method: str, overrides=None):
-  """The config `spec` ('file.py[:variant]') made into `method`, applied once
-  to the scene's own config: the variant gets the method's suffix (a method
-  the variant already names is replaced; a file's variant may be the method
-  alone, as configs/default.py's). `overrides`: {dotted field: value} set
-  afterwards."""
-  from halo_jax import methods  # pylint: disable=g-import-not-at-top
-  path, _, variant = spec.partition(":")
-  parts, flags, _ = methods.split_variant(variant)
-  kept = [f for f in ("cpu",) if f in flags]
-  c = load_config(f"{path}:{'_'.join(parts + kept + [method])}")
-  for field, value in (overrides or {}).items():
-    set_field(c, field, value)
-  return c
-
-
-def dotted_fields(tree, prefix: str = "") -> dict:
-  """{'a': {'b': 1}} -> {'a.b': 1}: a nested dict (a config's to_dict(), the
-  command line's overrides) as the dotted fields `set_field` takes."""
-  out = {}
-  for k, v in tree.items():
-    if isinstance(v, dict):
-      out.update(dotted_fields(v, f"{prefix}{k}."))
-    else:
-      out[prefix + k] = v
-  return out
-
-
-def set_field(config, dotted: str, value):
-  """config.<dotted> = value; KeyError naming the field when it does not exist."""
-  *parents, leaf = dotted.split(".")
-  node = config
-  for p in parents:
-    node = node[p]
-  if leaf not in node:
-    raise KeyError(f"config has no field {dotted!r}")
-  node[leaf] = value
 
 
 def read_curve(workdir):

@@ -12,10 +12,14 @@ pi/2 is split into three 12-bit parts and a float32 rest, and k into its top
 subtraction cancels exactly; r then carries about one rounding whatever k is
 (checked against float64 up to |x| = 2^30 in tests/test_trig.py). Larger
 angles, where float32's spacing is 64 or more, give NaN rather than a value
-that only looks like a sine (sin_cos="xla" gives the sine of the float).
+that only looks like a sine (kind "xla" gives the sine of the float).
+
+How they are evaluated is static: every function takes `kind` (KINDS), and
+the models carry it as a field (the config's `sin_cos`), so it is part of
+what a jitted function is traced for; no global state is read.
 Polynomials: Cephes' minimax sinf/cosf on [-pi/4, pi/4] (about 1 ulp).
 """
-import contextlib
+import functools
 
 import jax
 import jax.numpy as jnp
@@ -90,49 +94,41 @@ def _sin_quadrant_f32(x, q):
 
 # How sin and cos are evaluated (config field `sin_cos`): these polynomials,
 # or XLA's own functions (one element at a time on a CPU; fast on a GPU).
+# experiments/throughput.py counts FLOPs on the "xla" form (the polynomials'
+# multiply-adds are not useful work).
 KINDS = ("polynomial", "xla")
-_XLA_SIN_COS = [False]  # set only inside using("xla"), read while tracing
 
 
-@contextlib.contextmanager
-def using(kind: str):
-  """Functions traced inside `with using(kind)` evaluate sin and cos as
-  `kind` says. experiments/throughput.py counts FLOPs on the "xla" form (the
-  polynomials' multiply-adds are not useful work)."""
+def check_kind(kind: str) -> str:
   if kind not in KINDS:
     raise ValueError(f"sin_cos={kind!r}: must be one of {KINDS}")
-  before = _XLA_SIN_COS[0]
-  _XLA_SIN_COS[0] = kind == "xla"
-  try:
-    yield
-  finally:
-    _XLA_SIN_COS[0] = before
+  return kind
 
 
-@jax.custom_jvp
-def sin_quadrant(x, q):
+@functools.partial(jax.custom_jvp, nondiff_argnums=(2,))
+def sin_quadrant(x, q, kind="polynomial"):
   """sin(x + q pi/2) for float32 x and integer q (broadcast together), the
-  quarter turns added exactly: q = 0 gives sin x, q = 1 cos x. Other dtypes
-  go through jnp.sin / jnp.cos."""
-  if x.dtype != jnp.float32 or _XLA_SIN_COS[0]:
+  quarter turns added exactly: q = 0 gives sin x, q = 1 cos x. Other dtypes,
+  and kind "xla", go through jnp.sin / jnp.cos. kind is static (KINDS)."""
+  if x.dtype != jnp.float32 or check_kind(kind) == "xla":
     return jnp.where(q % 2 == 0, jnp.sin(x), jnp.cos(x)) * jnp.where(q % 4 < 2, 1.0, -1.0)
   return _sin_quadrant_f32(x, q)
 
 
 @sin_quadrant.defjvp
-def _sin_quadrant_jvp(primals, tangents):
+def _sin_quadrant_jvp(kind, primals, tangents):
   (x, q), (t, _) = primals, tangents
-  return sin_quadrant(x, q), sin_quadrant(x, q + 1) * t
+  return sin_quadrant(x, q, kind), sin_quadrant(x, q + 1, kind) * t
 
 
 _SIN_COS = np.array([0, 1], np.int32)
 
 
-def sin_cos_stacked(x):
+def sin_cos_stacked(x, kind="polynomial"):
   """[..., n] -> [..., 2, n]: sin x then cos x as one array, in one elementwise pass."""
-  return sin_quadrant(x[..., None, :], _SIN_COS[:, None])
+  return sin_quadrant(x[..., None, :], _SIN_COS[:, None], kind)
 
 
-def sin_cos(x):
+def sin_cos(x, kind="polynomial"):
   """(sin x, cos x), each shaped like x (XLA merges their common reduction)."""
-  return sin_quadrant(x, np.int32(0)), sin_quadrant(x, np.int32(1))
+  return sin_quadrant(x, np.int32(0), kind), sin_quadrant(x, np.int32(1), kind)

@@ -20,8 +20,8 @@ LAYERS = (
     {"models", "ray_fields", "datasets", "checkpoint", "parallel", "evaluate", "defaults",
      "camera_paths", "view_pairs",
      "workdir_lock"},
-    {"stages", "tuning", "validate", "methods", "pipeline", "user_errors",
-     "restore", "runs", "calibration", "evaluate.front", "viewer"},
+    {"stages", "tuning", "validate", "methods", "configure", "pipeline", "user_errors",
+     "restore", "runs", "calibration", "front", "viewer"},
     {"cli", "integrations"},
 )
 

@@ -7,7 +7,7 @@ import sys
 import pytest
 
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
-from halo_jax import datasets, runs  # pylint: disable=g-import-not-at-top
+from halo_jax import configure, datasets  # pylint: disable=g-import-not-at-top
 from halo_jax.stages import collapse  # pylint: disable=g-import-not-at-top
 from experiments import benchmark, suites  # pylint: disable=g-import-not-at-top
 
@@ -66,7 +66,7 @@ def test_ingredient_variants_change_one_thing_to_the_other_baseline(tmp_path):
       assert _value(configs[method], field) != value, scene.name
     base = configs[method].to_dict()
     for field, _ in scene.overrides:  # undo the changes: the method's config again
-      runs.set_field(c, field, _value(configs[method], field))
+      configure.set_field(c, field, _value(configs[method], field))
     assert c.to_dict() == base, scene.name
 
 

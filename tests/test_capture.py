@@ -10,7 +10,7 @@ import pytest
 
 pycolmap = pytest.importorskip("pycolmap")
 
-from halo_jax import datasets  # noqa: E402
+from halo_jax import configure, datasets  # noqa: E402
 from halo_jax.datasets import capture, procedural  # noqa: E402
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -70,7 +70,7 @@ def test_sfm_recovers_the_true_cameras_up_to_a_similarity(photo_folder):
 def test_the_loader_normalises_and_splits_by_farthest_cameras(photo_folder):
   root, _, _ = photo_folder
   from configs import capture as capture_cfg
-  c = capture_cfg.get_config("6view_cpu")
+  c = configure.as_method(capture_cfg.get_config("6view_cpu"), "halo")
   c.data.root = root
   ds = datasets.load(c.data)
   assert len(ds.train.names) == 6 and not set(ds.train.names) & set(ds.test.names)
@@ -171,7 +171,7 @@ def test_a_short_halo_run_trains_on_recovered_cameras(photo_folder, tmp_path):
   from configs import capture as capture_cfg
   from halo_jax import pipeline
   root, _, _ = photo_folder
-  c = capture_cfg.get_config("6view")
+  c = configure.as_method(capture_cfg.get_config("6view"), "halo")
   c.data.update(root=root, factor=2, test_views="every:8")
   c.eval.update(chunk=1024, lpips=False, save_images=False)
   for name in ("lo", "hi"):

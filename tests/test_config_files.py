@@ -1,7 +1,7 @@
 """--config paths resolve to the configs shipped in the package from any directory."""
 import os
 
-from halo_jax import config_files, runs
+from halo_jax import config_files, configure
 
 
 def test_shipped_configs_resolve_from_anywhere(tmp_path, monkeypatch):
@@ -15,5 +15,23 @@ def test_shipped_configs_resolve_from_anywhere(tmp_path, monkeypatch):
   argv = config_files.resolve_argv(["prog", "--config=dnerf.py:hook_cpu", "--config", "llff.py"])
   assert argv[1].endswith(os.path.join("", "dnerf.py:hook_cpu")) and os.path.isabs(argv[1][9:])
   assert os.path.isabs(argv[3])
-  c = runs.load_config("procedural.py:lattice_8view_cpu_freenerf")
+  c = configure.load("procedural.py:lattice_8view_cpu", "freenerf")
   assert c.method == "freenerf" and c.data.procedural_scene == "lattice"
+
+
+def test_the_command_line_sets_its_overrides_after_the_method(monkeypatch):
+  """--config names the scene, --method the method; --config.* overrides are
+  set after the method, so they win over what it sets (nerf_paper's 1024 rays
+  a batch here), and fields the command line leaves alone are the method's."""
+  from halo_jax import cli  # pylint: disable=g-import-not-at-top
+  scene = configure.load_scene("blender.py:lego_8view_cpu")
+  scene.hi.batch_rays, scene.seed = 64, 3     # as config_flags leaves the scene
+  overrides = {"hi": {"batch_rays": 64}, "seed": 3}
+  monkeypatch.setattr(cli.config_flags, "get_override_values", lambda flag: overrides)
+  flag = type("ConfigFlag", (), {"value": scene})()
+  c = cli.config_of_flags(flag, "nerf_paper")
+  assert (c.method, c.hi.batch_rays, c.seed, c.hi.sampler.kind) == ("nerf_paper", 64, 3,
+                                                                     "coarse_fine")
+  assert configure.load("blender.py:lego_8view_cpu", "nerf_paper").hi.batch_rays == 1024
+  assert cli.config_of_flags(flag, "halo").stages == "lo,ray,hi"
+  assert scene.method == ""   # the scene itself is left as it was

@@ -5,7 +5,7 @@ import shutil
 import numpy as np
 import pytest
 
-from halo_jax import datasets
+from halo_jax import configure, datasets
 from halo_jax.datasets import blender, procedural
 from conftest import SHARED_DATA, tiny_config
 
@@ -112,7 +112,7 @@ def test_missing_image_names_the_file(scene_root, tmp_path):
 @pytest.mark.skipif(not os.path.isdir(LEGO), reason="lego not in the datasets folder")
 def test_lego_eight_views_factor_8():
   from configs import blender as blender_configs
-  c = blender_configs.get_config("lego_8view_cpu")
+  c = configure.as_method(blender_configs.get_config("lego_8view_cpu"), "halo")
   c.data.root = LEGO
   ds = datasets.load(c.data)
   assert ds.train.names == ("r_2", "r_16", "r_93", "r_55", "r_73", "r_86", "r_26", "r_75")

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from conftest import assert_trained, SHARED_DATA, tiny_config
-from halo_jax import datasets, methods, metrics, models, pipeline, stages
+from halo_jax import configure, datasets, methods, metrics, models, pipeline, stages
 from halo_jax.datasets import blender
 from halo_jax.stages import transfer
 
@@ -58,7 +58,7 @@ def test_npz_splits_and_every_eighth_image(scene_root, tmp_path):
 @pytest.mark.skipif(not os.path.exists(TINY_DNERF), reason="shared D-NeRF data absent")
 def test_tiny_dnerf_lego_split():
   from configs import dnerf
-  c = dnerf.get_config("tiny_cpu")
+  c = configure.as_method(dnerf.get_config("tiny_cpu"), "halo")
   c.data.root = TINY_DNERF
   ds = datasets.load(c.data)
   # 50 training frames, every 8th: frames 0, 8, ..., 48.
@@ -72,7 +72,7 @@ def test_dnerf_scene_folders_cpu_protocol(scene, num_train):
   """Any D-NeRF scene by name: every 8th training frame, the 20 test frames,
   100x100 on white (the paper's 400x400 protocol at factor 8)."""
   from configs import dnerf
-  c = dnerf.get_config(f"{scene}_cpu")
+  c = configure.as_method(dnerf.get_config(f"{scene}_cpu"), "halo")
   c.data.root = os.path.join(SHARED_DATA, "dnerf", scene)
   if not os.path.isdir(c.data.root):
     pytest.skip("shared D-NeRF scene folders absent")

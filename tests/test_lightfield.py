@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from conftest import SHARED_DATA
-from halo_jax import datasets, lightfield, pipeline, registry, render
+from halo_jax import configure, datasets, lightfield, pipeline, registry, render
 from halo_jax.datasets import stanford_lf
 from halo_jax.stages import base, batches, epi, radiance, terms
 
@@ -93,7 +93,7 @@ def write_light_field(root, grid=5, size=16, disparity_px=0.5):
 
 def lf_config(root):
   from configs import stanford_lf as cfg_lf
-  c = cfg_lf.get_config("scene_cpu")
+  c = configure.as_method(cfg_lf.get_config("scene_cpu"), "halo")
   c.data.update(root=root, train_views="00_00,00_04,04_00,04_04", test_views="02_02,01_03",
                 disparity_px=(-1.0, 1.0), grid_signs=(1.0, 1.0))
   c.budget_s = 0.0
@@ -318,7 +318,7 @@ def test_random_background_costs_only_transparency():
 @pytest.mark.skipif(not os.path.exists(KNIGHTS), reason="shared Stanford data absent")
 def test_knights_views_and_bounds():
   from configs import stanford_lf as cfg_lf
-  c = cfg_lf.get_config("knights_cpu")
+  c = configure.as_method(cfg_lf.get_config("knights_cpu"), "halo")
   c.data.root = KNIGHTS
   ds = datasets.load(c.data)
   assert ds.train.names == ("04_04", "04_12", "12_04", "12_12")
@@ -344,7 +344,7 @@ def test_knights_disparity_sign_and_range():
   # pixels, and the knights, which stand in front of the wall, must get a
   # larger delta (rendering composites from the largest delta, the nearest).
   from configs import stanford_lf as cfg_lf
-  c = cfg_lf.get_config("knights_cpu")
+  c = configure.as_method(cfg_lf.get_config("knights_cpu"), "halo")
   c.data.update(root=KNIGHTS, test_views="08_06,08_10")
   ds = datasets.load(c.data)
   a, b = ds.test.images[0].mean(-1), ds.test.images[1].mean(-1)
@@ -374,7 +374,7 @@ def test_knights_disparity_sign_and_range():
 @pytest.mark.slow
 def test_full_range_keeps_the_sample_count_and_rejects_an_empty_window():
   from configs import stanford_lf as cfg_lf
-  c = cfg_lf.get_config("scene_cpu")
+  c = configure.as_method(cfg_lf.get_config("scene_cpu"), "halo")
   c.hi.sampler.num_samples = 8
   c.hi.joint.full_range = 0.5
   model, ray_model = epi.models_from_config(c, "hi")

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from conftest import SHARED_DATA, assert_trained, tiny_config
-from halo_jax import camera, datasets, methods, pipeline, stages
+from halo_jax import camera, configure, datasets, methods, pipeline, stages
 
 FERN = os.path.join(SHARED_DATA, "nerf_llff_data", "fern")
 
@@ -101,7 +101,7 @@ def test_forward_facing_stages_smoke(tmp_path):
 @pytest.mark.skipif(not os.path.exists(FERN), reason="shared LLFF data absent")
 def test_fern_split_and_ndc_bounds():
   from configs import llff
-  c = llff.get_config("fern_4view_cpu")
+  c = configure.as_method(llff.get_config("fern_4view_cpu"), "halo")
   c.data.root = FERN
   ds = datasets.load(c.data)
   assert ds.train.images.shape == (4, 378, 504, 3) and ds.test.names == ("014",)
@@ -150,6 +150,6 @@ def test_regnerf_split_of_twenty_images():
 def test_fern_regnerf_3view_config_loads_its_split(monkeypatch):
   from configs import llff as llff_cfg
   monkeypatch.setenv("HALO_DATA", SHARED_DATA)
-  c = llff_cfg.get_config("fern_3view_cpu_halo")
+  c = configure.as_method(llff_cfg.get_config("fern_3view_cpu"), "halo")
   ds = datasets.load(c.data)
   assert ds.train.names == ("001", "010", "019") and ds.test.names == ("000", "008", "016")

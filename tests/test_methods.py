@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from conftest import assert_trained, tiny_config
-from halo_jax import losses, methods, models, pipeline, raycast, runs, samplers, validate
+from halo_jax import config_files, configure, losses, methods, models, pipeline, raycast, samplers, validate
 from halo_jax.registry import ConfigError
 from halo_jax.stages import batches
 from halo_jax.stages import step as train_step
@@ -113,55 +113,54 @@ def test_lr_decay_steps_gives_the_original_schedule():
     np.testing.assert_allclose(float(original(step)), 5e-4 * 0.1 ** (step / 500000), rtol=1e-5)
 
 
-@pytest.mark.parametrize("variant, parts, flags, method", [
-    ("lego_8view_cpu", ["lego", "8view"], {"cpu"}, "halo"),
-    ("lego_8view_cpu_nerf", ["lego", "8view"], {"cpu"}, "nerf_tuned"),
-    ("lego_8view_nerf_paper", ["lego", "8view"], set(), "nerf_paper"),
-    ("lego_8view_cpu_freenerf", ["lego", "8view"], {"cpu"}, "freenerf"),
-    ("lego_oneside_cpu_halo+freenerf", ["lego", "oneside"], {"cpu"}, "halo+freenerf"),
-])
-def test_variants_name_the_method(variant, parts, flags, method):
-  assert methods.split_variant(variant) == (parts, flags, method)
+def test_a_variant_names_a_scene_and_no_method():
+  from configs import blender
+  assert config_files.split_flags("lego_8view_cpu") == (["lego", "8view"], {"cpu"})
+  assert config_files.split_flags("8view_ff_cpu", ("cpu", "ff")) == (["8view"], {"cpu", "ff"})
+  assert blender.get_config("lego_8view_cpu").method == ""
+  with pytest.raises(ValueError, match="unknown variant 'lego_8view_cpu_nerf_paper'"):
+    blender.get_config("lego_8view_cpu_nerf_paper")
 
 
 def test_methods_configure_the_stages_they_describe():
-  from configs import blender
-  c = blender.get_config("lego_8view_cpu")
-  paper = blender.get_config("lego_8view_cpu_nerf_paper")
+  c = configure.load("configs/blender.py:lego_8view_cpu", "halo")
+  paper = configure.load("configs/blender.py:lego_8view_cpu", "nerf_paper")
   assert paper.method == "nerf_paper" and paper.stages == "hi"
   assert (paper.hi.sampler.kind, paper.hi.sampler.num_coarse, paper.hi.sampler.num_samples) == (
       "coarse_fine", 64, 128)
   assert paper.hi.model.density_activation == "relu" and paper.hi.density_noise == 0.0
   assert paper.hi.one_image and paper.hi.batch_rays == 1024
-  free = blender.get_config("lego_8view_cpu_freenerf")
+  free = configure.load("configs/blender.py:lego_8view_cpu", "freenerf")
   assert free.hi.freq_reg.end == 0.9 and free.hi.occlusion.weight == 0.01
-  both = blender.get_config("lego_8view_cpu_halo+freenerf")
+  both = configure.load("configs/blender.py:lego_8view_cpu", "halo+freenerf")
   assert pipeline.needed(both) == ("lo", "ray", "hi") and both.hi.freq_reg.end == 0.9
   for name in methods.METHODS.names():
-    validate.validate(runs.load_config_as("configs/blender.py:lego_8view_cpu", name))
+    validate.validate(configure.load("configs/blender.py:lego_8view_cpu", name))
   neutral = tiny_config(method="")
   assert neutral.method == ""
   with pytest.raises(ConfigError, match="method='dietnerf' is not a known method"):
     methods.apply(neutral, "dietnerf")
   # a method is applied once: HALO's settings must not reach a baseline
-  assert methods.apply(c, "halo").to_dict() == c.to_dict()
-  with pytest.raises(ValueError, match="already method 'halo'.*suffix _nerf_tuned"):
+  with pytest.raises(ValueError, match="already method 'halo'.*configure.as_method"):
     methods.apply(c, "nerf_tuned")
+  # an override wins over what the method sets
+  assert configure.load("configs/blender.py:lego_8view_cpu", "nerf_paper",
+                        {"hi.batch_rays": 64}).hi.batch_rays == 64
 
 
 def _llff():
   from configs import llff
-  return llff.get_config("fern_4view_cpu")
+  return configure.as_method(llff.get_config("fern_4view_cpu"), "halo")
 
 
 def _dnerf():
   from configs import dnerf
-  return dnerf.get_config("lego_cpu")
+  return configure.as_method(dnerf.get_config("lego_cpu"), "halo")
 
 
 def _knights():
   from configs import stanford_lf
-  return stanford_lf.get_config("knights_cpu")
+  return configure.as_method(stanford_lf.get_config("knights_cpu"), "halo")
 
 
 def _set(make, **fields):
@@ -215,17 +214,18 @@ def test_validate_names_the_field(make, message):
 
 def test_every_shipped_config_validates():
   for spec in ("configs/default.py", "configs/blender.py:lego_8view",
-               "configs/blender.py:lego_oneside_cpu", "configs/llff.py:fern_4view_cpu_joint",
+               "configs/blender.py:lego_oneside_cpu", "configs/llff.py:fern_4view_cpu",
                "configs/dnerf.py:lego", "configs/stanford_lf.py:knights"):
-    for name in ("halo", "nerf_tuned"):
-      validate.validate(runs.load_config_as(spec, name))
+    for name in ("halo", "nerf_tuned") + (("halo_joint",) if "llff" in spec else ()):
+      validate.validate(configure.load(spec, name))
 
 
 def test_auto_frequency_is_accepted_for_every_kind_with_a_lo_nerf():
   from configs import dnerf, llff
-  for c in (llff.get_config("fern_4view_cpu"), dnerf.get_config("hook_cpu"), tiny_config()):
+  for c in (configure.as_method(llff.get_config("fern_4view_cpu"), "halo"),
+            configure.as_method(dnerf.get_config("hook_cpu"), "halo"), tiny_config()):
     c.lo.encoding.auto = True
-    validate.validate(methods.apply(c, "halo"))
+    validate.validate(c)
 
 
 def test_auto_frequency_on_a_light_field_is_refused_before_any_work(tmp_path):
@@ -272,16 +272,16 @@ def test_method_trains_through_the_pipeline(name, scene_root, tmp_path):
 
 
 def test_halo_settings_reach_every_halo_method_and_no_baseline():
-  from configs import dnerf, procedural
   from halo_jax.methods import halo
+  hook_spec, spheres_spec = "configs/dnerf.py:hook_cpu", "configs/procedural.py:spheres_8view_cpu"
   for name in ("halo", "halo+freenerf", "halo+unseen", "halo_auto"):
-    hook = dnerf.get_config(f"hook_cpu_{name}")
+    hook = configure.load(hook_spec, name)
     assert (hook.hi.lr_init, hook.hi.lr_final) == halo.COPY_LR, name
-    assert procedural.get_config(f"spheres_8view_cpu_{name}").lo.precrop_steps == 0, name
+    assert configure.load(spheres_spec, name).lo.precrop_steps == 0, name
   assert hook.lo.precrop_steps == 200  # dynamic scenes keep Lo's crop (not measured without)
-  assert procedural.get_config("spheres_8view_cpu_nerf_tuned").hi.precrop_steps == 200
-  assert dnerf.get_config("hook_cpu_nerf_tuned").hi.lr_init == 2e-3
-  assert procedural.get_config("spheres_8view_cpu").hi.lr_init == 2e-3  # static: unchanged
+  assert configure.load(spheres_spec, "nerf_tuned").hi.precrop_steps == 200
+  assert configure.load(hook_spec, "nerf_tuned").hi.lr_init == 2e-3
+  assert configure.load(spheres_spec, "halo").hi.lr_init == 2e-3  # static: unchanged
 
 
 # Every shipped scene variant, one per protocol and size.
@@ -293,27 +293,11 @@ SCENE_SPECS = ("configs/default.py", "configs/blender.py:lego_8view", "configs/b
 BASELINES = ("nerf_tuned", "nerf_paper", "freenerf")
 
 
-def _scene_config(spec, monkeypatch):
-  """The config `spec`'s file builds before it applies a method."""
-  seen = []
-  real = methods.apply
-
-  def capture(c, name):
-    seen.append(c.copy_and_resolve_references())
-    return real(c, name)
-
-  monkeypatch.setattr(methods, "apply", capture)
-  runs.load_config(spec)
-  monkeypatch.setattr(methods, "apply", real)
-  assert len(seen) == 1, spec
-  return seen[0]
-
-
 @pytest.mark.parametrize("spec", SCENE_SPECS)
-def test_scene_configs_are_a_neutral_nerf(spec, monkeypatch):
+def test_scene_configs_are_a_neutral_nerf(spec):
   # A scene's file holds the protocol; the stages, samplers and loss weights
   # are the method's.
-  c = _scene_config(spec, monkeypatch)
+  c = configure.load_scene(spec)
   assert c.method == "" and c.stages == "hi", spec
   assert c.hi.sampler.kind == "stratified", spec
   assert not (c.hi.init_from_lo or c.hi.encoding.with_lo), spec
@@ -332,7 +316,7 @@ def test_a_field_added_to_halo_reaches_no_baseline(monkeypatch):
     for spec in specs:
       for name in BASELINES + ("halo",):
         try:
-          out[spec, name] = runs.load_config_as(spec, name).to_dict()
+          out[spec, name] = configure.load(spec, name).to_dict()
         except ConfigError:
           pass
     return out
@@ -359,21 +343,19 @@ def test_a_field_added_to_halo_reaches_no_baseline(monkeypatch):
 
 def test_a_method_refuses_a_scene_kind_it_does_not_run_on():
   with pytest.raises(ConfigError) as e:
-    runs.load_config_as("configs/stanford_lf.py:knights_cpu", "nerf_paper")
+    configure.load("configs/stanford_lf.py:knights_cpu", "nerf_paper")
   assert "\n" not in str(e.value)
   assert "'nerf_paper' does not run on data.kind='stanford_lf'" in str(e.value)
   with pytest.raises(ConfigError, match="'halo_joint' .* static scenes only"):
-    runs.load_config_as("configs/dnerf.py:hook_cpu", "halo_joint")
+    configure.load("configs/dnerf.py:hook_cpu", "halo_joint")
 
 
-def test_the_joint_scheme_is_a_method_and_keeps_its_old_name():
-  from configs import llff
-  joint = llff.get_config("fern_4view_cpu_joint")
+def test_the_joint_scheme_is_a_method():
+  joint = configure.load("configs/llff.py:fern_4view_cpu", "halo_joint")
   assert joint.method == "halo_joint" and joint.stages == "lo,hi"
   assert joint.hi.sampler.kind == "joint"
   assert joint.hi.joint.alpha_final == joint.hi.sampler.window  # ends at the two-stage window
-  assert llff.get_config("fern_4view_cpu_halo_joint").to_dict() == joint.to_dict()
-  two_stage = llff.get_config("fern_4view_cpu")
+  two_stage = configure.load("configs/llff.py:fern_4view_cpu", "halo")
   assert (two_stage.stages, two_stage.hi.sampler.kind) == ("lo,ray,hi", "depth_guided")
 
 
@@ -388,7 +370,7 @@ def test_the_method_table_in_the_docs_is_generated_from_the_configs():
 
 def test_the_extending_example_is_one_file_and_one_line(monkeypatch):
   # docs/extending.md's method, run from the page itself: registered with one
-  # line, it reaches every scene file by suffix and differs from nerf_tuned
+  # line, it runs on every scene file and differs from nerf_tuned
   # only where it says.
   import re  # pylint: disable=g-import-not-at-top
   import types  # pylint: disable=g-import-not-at-top
@@ -397,10 +379,10 @@ def test_the_extending_example_is_one_file_and_one_line(monkeypatch):
   module = types.ModuleType("nerf_empty")
   exec(compile(code, "docs/extending.md", "exec"), module.__dict__)  # pylint: disable=exec-used
   monkeypatch.setitem(methods.METHODS._entries, "nerf+empty", module.METHOD)  # pylint: disable=protected-access
-  c = runs.load_config("configs/blender.py:lego_8view_cpu_nerf+empty")
+  c = configure.load("configs/blender.py:lego_8view_cpu", "nerf+empty")
   validate.validate(c)
   assert c.method == "nerf+empty" and pipeline.needed(c) == ("lo", "hi")
-  base = runs.load_config("configs/blender.py:lego_8view_cpu_nerf_tuned").to_dict()
+  base = configure.load("configs/blender.py:lego_8view_cpu", "nerf_tuned").to_dict()
   got = c.to_dict()
   assert (got.pop("stages"), got["hi"]["empty"].pop("weight"), got.pop("method")) == (
       "lo,hi", 0.1, "nerf+empty")
@@ -409,4 +391,4 @@ def test_the_extending_example_is_one_file_and_one_line(monkeypatch):
   base["hi"]["empty"].pop("weight")
   assert got == base
   with pytest.raises(ConfigError, match="'nerf\\+empty' does not run on data.kind='llff'"):
-    runs.load_config("configs/llff.py:fern_4view_cpu_nerf+empty")
+    configure.load("configs/llff.py:fern_4view_cpu", "nerf+empty")

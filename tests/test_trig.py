@@ -58,12 +58,9 @@ def test_derivatives_are_the_other_function():
 def test_xla_reference_arm_agrees():
   x = jnp.asarray(_angles(1e-3, 1e3, n=10_000, seed=3))
   fast = trig.sin_cos_stacked(x)
-  with trig.using("xla"):
-    ref = jax.jit(trig.sin_cos_stacked)(x)   # traced inside: XLA's sin and cos
-  assert not trig._XLA_SIN_COS[0]
+  ref = jax.jit(trig.sin_cos_stacked, static_argnums=1)(x, "xla")   # XLA's sin and cos
   with pytest.raises(ValueError, match="sin_cos='libm'"):
-    with trig.using("libm"):
-      pass
+    trig.sin_cos_stacked(x, "libm")
   np.testing.assert_allclose(fast, ref, atol=2.5e-7)
   np.testing.assert_allclose(ref[0], np.sin(np.asarray(x)), atol=1e-7)
 
@@ -74,3 +71,19 @@ def test_other_dtypes_use_jnp():
   assert s.dtype == jnp.bfloat16
   np.testing.assert_allclose(np.asarray(s, np.float32), np.sin(np.asarray(x, np.float32)), atol=1e-2)
   np.testing.assert_allclose(np.asarray(c, np.float32), np.cos(np.asarray(x, np.float32)), atol=1e-2)
+
+
+def test_the_sin_cos_kind_is_part_of_what_a_model_is_traced_for():
+  """Two fields that differ only in `sin_cos` lower to different programs
+  under one jitted function (no trace of one reused for the other): XLA's
+  sine in one, only multiply-adds in the other; their values agree."""
+  from halo_jax import models  # pylint: disable=g-import-not-at-top
+  make = lambda kind: models.NeRFMLP(pos_freqs=4, width=16, depth=2, skips=(), dir_freqs=2,
+                                     sin_cos=kind)
+  x = jnp.linspace(-1.0, 1.0, 12).reshape(4, 3)
+  params = make("polynomial").init(jax.random.PRNGKey(0), x, x)
+  apply = jax.jit(lambda model, p, a: model.apply(p, a, a), static_argnums=0)
+  texts = {k: apply.lower(make(k), params, x).as_text() for k in trig.KINDS}
+  assert "sine" in texts["xla"] and "sine" not in texts["polynomial"]
+  np.testing.assert_allclose(apply(make("xla"), params, x)[1],
+                             apply(make("polynomial"), params, x)[1], atol=1e-6)

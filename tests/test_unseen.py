@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from conftest import assert_trained, tiny_config
-from halo_jax import camera, losses, methods, pipeline, visibility
+from halo_jax import camera, configure, losses, pipeline, visibility
 
 
 def _numpy_in_frustum(point, c2w, focal, width, height):
@@ -51,13 +51,13 @@ def test_unseen_density_is_the_mean_over_unseen_points_only():
 
 def test_halo_unseen_is_halo_plus_one_term_on_both_nerfs_and_left_out_where_all_is_seen():
   from configs import llff, procedural
-  halo = procedural.get_config("spheres_8view_cpu")
-  ours = procedural.get_config("spheres_8view_cpu_halo+unseen")
+  halo = configure.as_method(procedural.get_config("spheres_8view_cpu"), "halo")
+  ours = configure.as_method(procedural.get_config("spheres_8view_cpu"), "halo+unseen")
   assert (ours.lo.unseen.weight, ours.hi.unseen.weight) == (0.01, 0.01)
   ours.lo.unseen.weight = ours.hi.unseen.weight = 0.0
   ours.method = "halo"
   assert ours.to_dict() == halo.to_dict()
-  fern = llff.get_config("fern_4view_cpu_halo+unseen")
+  fern = configure.as_method(llff.get_config("fern_4view_cpu"), "halo+unseen")
   assert fern.lo.unseen.weight == fern.hi.unseen.weight == 0.0
 
 

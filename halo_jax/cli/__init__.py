@@ -7,11 +7,29 @@
   halo-sweep    halo_jax/cli/sweep.py     a grid of config overrides
 
 Each is also `python -m halo_jax.cli.<name>`. Nothing below this package
-imports it.
+imports it. The commands that take a --config take the method apart from it
+(--method, or --methods for halo-compare): the config file names a scene,
+halo_jax/configure.py makes it into the method.
 """
-from absl import logging
+from absl import flags, logging
+from ml_collections import config_flags
 
-from halo_jax import user_errors, workdir_lock
+from halo_jax import configure, methods, user_errors, workdir_lock
+
+
+def define_method_flag():
+  """--method, for the commands that train one method from --config."""
+  flags.DEFINE_enum("method", "halo", sorted(methods.METHODS.names()),
+                    "The method trained on --config's scene (halo_jax/methods).")
+
+
+def config_of_flags(config_flag, method: str):
+  """--config's scene made into `method`, with --config's dotted overrides
+  set again after the method (config_flags set them on the scene, before the
+  method existed), so that an override wins over what the method sets.
+  config_flag: FLAGS['config']."""
+  overrides = configure.dotted_fields(config_flags.get_override_values(config_flag))
+  return configure.as_method(config_flag.value, method, overrides)
 
 
 def run_in_workdir(run, config, workdir: str):

@@ -24,15 +24,15 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # pylint: disable=g-import-not-at-top
 from ml_collections import config_flags
 
-from halo_jax import config_files, datasets, methods, pipeline, runs, tables
-from halo_jax.cli import run_in_workdir
+from halo_jax import config_files, datasets, pipeline, runs, tables
+from halo_jax.cli import config_of_flags, run_in_workdir
 
 FLAGS = flags.FLAGS
 
 
 def define_flags():
   """The command's flags, defined on launch (the tests import this module)."""
-  config_flags.DEFINE_config_file("config", None, "HALO config (path[:variant]).",
+  config_flags.DEFINE_config_file("config", None, "Scene config (path[:variant]).",
                                   lock_config=True)
   flags.DEFINE_string("workdir", None, "Output folder.")
   flags.DEFINE_bool("all_views_reference", False, "Also train NeRF on all training views.")
@@ -106,7 +106,7 @@ def main(argv):
 
 def run(config):
   """The experiment in FLAGS.workdir (locked by main); `config` is --config's
-  (each method's config is loaded again from its file, as that method)."""
+  scene, which each method is made from (cli.config_of_flags)."""
   os.makedirs(FLAGS.workdir, exist_ok=True)
   results_path = os.path.join(FLAGS.workdir, "results.json")
   results = {}
@@ -114,13 +114,8 @@ def run(config):
     with open(results_path) as f:
       results = json.load(f)
   n_test = 0
-  spec = config_flags.get_config_filename(FLAGS["config"])
-  overrides = config_flags.get_override_values(FLAGS["config"])
-  flat = runs.dotted_fields(overrides)
-  # Each method is applied once to the scene's own config (methods.apply),
-  # then the command line's overrides, as --config gave them.
-  load = lambda name: runs.load_config_as(spec, name, flat)  # pylint: disable=unnecessary-lambda-assignment
   del config
+  load = lambda name: config_of_flags(FLAGS["config"], name)  # pylint: disable=unnecessary-lambda-assignment
   for name, cfg in method_configs(load, FLAGS.methods, FLAGS.all_views_reference).items():
     dataset = datasets.load(cfg.data, os.path.join(FLAGS.workdir, name))
     n_test = len(dataset.test.names)

@@ -1,6 +1,6 @@
 """Sweeps any config fields from the command line; one workdir per point.
 
-  halo-sweep --config=configs/blender.py:lego_8view_cpu --workdir=DIR \
+  halo-sweep --config=configs/blender.py:lego_8view_cpu --workdir=DIR [--method=halo] \
       --sweep=lo.encoding.L=3,5,7 --sweep=lo.encoding.scale=1,8,32 [--config.stages=lo]
   halo-sweep ... --sweep='data.train_views=["r_2,r_16", "r_2,r_16,r_93"]'   # values with commas
 
@@ -20,7 +20,7 @@ from absl import app, flags
 from ml_collections import config_flags
 
 from halo_jax import config_files, datasets, pipeline, plots, stages, tables, tuning
-from halo_jax.cli import run_in_workdir
+from halo_jax.cli import config_of_flags, define_method_flag, run_in_workdir
 from halo_jax.stages import radiance
 
 FLAGS = flags.FLAGS
@@ -31,6 +31,7 @@ def define_flags():
   config_flags.DEFINE_config_file("config", None, "Base config (path[:variant]).",
                                   lock_config=True)
   flags.DEFINE_string("workdir", None, "Output folder.")
+  define_method_flag()
   flags.DEFINE_multi_string("sweep", [], "field=v1,v2,... (repeat for a product).")
   flags.DEFINE_bool("criterion", True, "Score each point's Lo-NeRF with the frequency criterion.")
   flags.mark_flags_as_required(["config", "workdir"])
@@ -122,7 +123,7 @@ def report(rows, workdir):
 
 def main(argv):
   del argv
-  run_in_workdir(run, FLAGS.config, FLAGS.workdir)
+  run_in_workdir(run, config_of_flags(FLAGS["config"], FLAGS.method), FLAGS.workdir)
 
 
 def run(config):

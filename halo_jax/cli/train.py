@@ -1,7 +1,7 @@
 """Launches HALO's stages.
 
   python -m halo_jax.cli.train --config=configs/blender.py:lego_8view \
-      --workdir=DIR --config.data.root=PATH [--config.stages=lo,ray,hi]
+      --workdir=DIR [--method=freenerf] --config.data.root=PATH [--config.stages=lo,ray,hi]
 
 This file is kept short: the logic lives in `halo_jax.pipeline`.
 """
@@ -11,7 +11,7 @@ from absl import app, flags, logging
 from ml_collections import config_flags
 
 from halo_jax import config_files, parallel, pipeline, user_errors
-from halo_jax.cli import view
+from halo_jax.cli import config_of_flags, define_method_flag, view
 
 FLAGS = flags.FLAGS
 config_flags.DEFINE_config_file("config", None, "Config file (path[:variant]).",
@@ -19,6 +19,7 @@ config_flags.DEFINE_config_file("config", None, "Config file (path[:variant]).",
 flags.DEFINE_string("workdir", None, "Folder for checkpoints, logs and renders.")
 flags.DEFINE_bool("view", False, "Also open halo-view on the run, in a process of its own.")
 flags.DEFINE_integer("view_port", 8080, "The viewer's port (with --view).")
+define_method_flag()
 flags.mark_flags_as_required(["config", "workdir"])
 
 
@@ -29,8 +30,9 @@ def main(argv):
     if FLAGS.view:
       view.check_port("127.0.0.1", FLAGS.view_port)
       view.launch_beside(FLAGS.workdir, FLAGS.view_port)
-    parallel.initialize(FLAGS.config.parallel)
-    infos = pipeline.run(FLAGS.config, FLAGS.workdir)
+    config = config_of_flags(FLAGS["config"], FLAGS.method)
+    parallel.initialize(config.parallel)
+    infos = pipeline.run(config, FLAGS.workdir)
   print(pipeline.table(infos))
   print(json.dumps({"workdir": FLAGS.workdir}))
 

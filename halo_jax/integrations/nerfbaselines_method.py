@@ -38,7 +38,7 @@ from absl import logging as absl_logging
 import ml_collections
 import numpy as np
 
-from halo_jax import checkpoint as checkpoints, pipeline, raycast, restore, runs
+from halo_jax import checkpoint as checkpoints, configure, pipeline, raycast, restore
 from halo_jax.datasets.base import Dataset, Similarity, Views
 from halo_jax.geometry import Geometry
 from halo_jax.integrations import nerfbaselines_scene as nb_scene
@@ -55,16 +55,17 @@ WORKDIR = "halo"
 
 
 def make_config(kind: str, overrides: Dict[str, Any]):
-  """Our config for a harness run: the named or default config, the harness's
-  overrides, step-capped stages (nerfbaselines counts iterations, not
+  """Our config for a harness run: the named or default config as the method
+  the harness's `method` names (HALO by default), the harness's overrides, step-capped stages (nerfbaselines counts iterations, not
   seconds) and no held-out scoring of our own (the harness scores)."""
   overrides = {k: parse_value(v) for k, v in overrides.items()}
   cpu = bool(overrides.pop("cpu", False))
   spec = overrides.pop("config", None) or DEFAULT_CONFIGS[kind] + ("_cpu" if cpu else "")
+  method = overrides.pop("method", "halo")
   if isinstance(spec, ml_collections.ConfigDict):  # handed over in Python (tests)
     config, spec = copy.deepcopy(spec), "(a ConfigDict)"
   else:
-    config = runs.load_config(spec)
+    config = configure.load(spec, method)
   config.budget_s = 0.0
   config.data.kind = DATA_KINDS[kind]
   config.eval.lpips = False
@@ -76,7 +77,7 @@ def make_config(kind: str, overrides: Dict[str, Any]):
     config[name].eval_every_s = 0.0
   for field, value in overrides.items():
     try:
-      runs.set_field(config, field, value)
+      configure.set_field(config, field, value)
     except KeyError as e:
       raise ConfigError(f"nerfbaselines --set {field}={value}: our config ({spec}) has no "
                         f"field {field!r}") from e
@@ -162,7 +163,7 @@ class HaloMethod:
     return {**method_info(), "num_iterations": self.num_iterations(),
             "loaded_step": self.loaded_step, "loaded_checkpoint": self.checkpoint,
             "batch_size": int(self.config.hi.batch_rays), "eval_batch_size": self.config.eval.chunk,
-            "hparams": runs.dotted_fields(self.config.to_dict())}
+            "hparams": configure.dotted_fields(self.config.to_dict())}
 
   def num_iterations(self) -> int:
     """One iteration a training step of each stage the method's output needs."""

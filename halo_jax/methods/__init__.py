@@ -5,6 +5,9 @@ terms. The pipeline runs whatever the config says; adding a method is a
 module here plus one `register` line below, never an edit to the pipeline.
 
   c = methods.apply(configs.blender.get_config("lego_8view_cpu"), "freenerf")
+
+halo_jax/configure.py is the one place a launch does this (then sets the
+command line's overrides).
 """
 import copy
 
@@ -14,8 +17,6 @@ from halo_jax.methods import (freenerf, halo, halo_auto, halo_freenerf, halo_joi
 from halo_jax.methods.base import Method
 
 METHODS = registry.Registry[Method]("method")
-# Older spellings in config variants ('<scene>_..._nerf', 'fern_4view_joint').
-ALIASES = {"nerf": "nerf_tuned", "joint": "halo_joint"}
 METHODS.register("halo", halo.METHOD)
 METHODS.register("nerf_tuned", nerf_tuned.METHOD)
 METHODS.register("nerf_paper", nerf_paper.METHOD)
@@ -26,22 +27,17 @@ METHODS.register("halo+unseen", halo_unseen.METHOD)
 METHODS.register("halo_joint", halo_joint.METHOD)
 
 def apply(config, name: str):
-  """A copy of `config` turned into method `name` (METHODS or ALIASES).
+  """A copy of the scene config `config` turned into method `name` (METHODS).
 
   A method is applied once, to a scene's config as its file builds it:
   making a config that is already one method into another would carry the
   first one's settings into the second (HALO's into a baseline). That is
-  refused; load the scene's variant with the method's suffix instead
-  (runs.load_config_as).
+  refused; make each method from the scene's config (configure.as_method).
   """
-  name = ALIASES.get(name, name)
   done = config.get("method", "")
-  if done == name:
-    return copy.deepcopy(config)
   if done:
-    raise ValueError(f"this config is already method {done!r}; to get {name!r} on the same "
-                     f"scene, load the scene's variant with the suffix _{name} "
-                     "(halo_jax.runs.load_config_as)")
+    raise ValueError(f"this config is already method {done!r}; make {name!r} from the "
+                     "scene's config (halo_jax.configure.as_method)")
   method = METHODS.get(name, "method")
   _check_scene(method, name, config.data)
   c = method.apply(copy.deepcopy(config))
@@ -59,21 +55,4 @@ def _check_scene(method, name, data):
                  f"{'' if method.dynamic else ', static scenes only'}")
 
 
-def split_variant(arg: str, flags=("cpu",)):
-  """'lego_8view_cpu_nerf_paper' -> (['lego', '8view'], {'cpu'}, 'nerf_paper').
-
-  The variant ends with an optional method name (METHODS or ALIASES; 'halo'
-  when absent), before it optional flags from `flags`.
-  """
-  method = "halo"
-  for name in sorted(list(METHODS.names()) + list(ALIASES), key=len, reverse=True):
-    if arg == name or arg.endswith("_" + name):
-      method, arg = ALIASES.get(name, name), arg[:-len(name)].rstrip("_")
-      break
-  parts, found = arg.split("_") if arg else [], set()
-  while parts and parts[-1] in flags:
-    found.add(parts.pop())
-  return parts, found, method
-
-
-__all__ = ["ALIASES", "METHODS", "Method", "apply", "split_variant"]
+__all__ = ["METHODS", "Method", "apply"]

@@ -8,7 +8,7 @@ train. The pipeline (halo_jax/pipeline.py) only ever talks to this interface.
 import dataclasses
 from typing import Any, Callable, Dict, Optional
 
-from halo_jax import geometry, registry, trig
+from halo_jax import geometry, registry
 
 
 @dataclasses.dataclass(frozen=True)
@@ -65,13 +65,6 @@ def trainer_of(config, name: str) -> Trainer:
 
 
 def renderer_of(config, name: str, dataset, states) -> Callable:
-  """The finished stage's renderer (Trainer.renderer), its sin and cos
-  evaluated as config.sin_cos says: a renderer is traced at its first call,
-  wherever that is."""
-  render = trainer_of(config, name).renderer(config, name, dataset, states)
-  kind = config.get("sin_cos", "polynomial")
-
-  def render_as_configured(*args, **kwargs):
-    with trig.using(kind):
-      return render(*args, **kwargs)
-  return render_as_configured
+  """The finished stage's renderer (Trainer.renderer); its models carry
+  config.sin_cos, the way their sin and cos are evaluated."""
+  return trainer_of(config, name).renderer(config, name, dataset, states)

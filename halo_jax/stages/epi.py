@@ -66,8 +66,9 @@ def init_params(model, ray_model, seed):
 
 def models_from_config(config, name):
   cfg = config[name]
-  ray_model = ray_fields.epi_ray_field_from_config(cfg.joint) if _sampler(cfg).trains_guide \
-      else None
+  sin_cos = config.get("sin_cos", "polynomial")
+  ray_model = ray_fields.epi_ray_field_from_config(cfg.joint, sin_cos) \
+      if _sampler(cfg).trains_guide else None
   return models.nerf_from_config(config, name), ray_model
 
 

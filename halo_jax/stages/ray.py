@@ -32,7 +32,8 @@ def check(config, name, dspec):
 
 
 def init_params(config, name, dataset):
-  model = ray_fields.ray_field_from_config(config[name], dataset.near, dataset.far)
+  model = ray_fields.ray_field_from_config(config[name], dataset.near, dataset.far,
+                                           config.get("sin_cos", "polynomial"))
   return {"ray": ray_fields.init_ray_field(model, config.seed)}
 
 
@@ -96,7 +97,8 @@ def train(ctx: base.StageContext):
   config, name, ds = ctx.config, ctx.name, ctx.dataset
   cfg = ctx.cfg
   radius = ray_fields.guide_radius(cfg, ds)
-  model = ray_fields.ray_field_from_config(cfg, ds.near, ds.far)
+  model = ray_fields.ray_field_from_config(cfg, ds.near, ds.far,
+                                           config.get("sin_cos", "polynomial"))
   lo_samples = cfg.lo_samples or ctx.states[TEACHER].config.lo.sampler.num_samples
   n_random = int(round(cfg.batch_rays * cfg.random_fraction)) if cfg.bank_rays else 0
   microbatch.check_parts(cfg, cfg.batch_rays - n_random, f"{name}.batch_rays (training rays)", ctx.mesh)

@@ -1,6 +1,6 @@
 """A stage's parameters saved at given training times of its method: the
 points of the run's error-against-time front, scored after training
-(halo_jax/evaluate/front.py) so that scoring never counts as training time.
+(halo_jax/front.py) so that scoring never counts as training time.
 
 Times are the method's training seconds (earlier stages included, as the
 loop's `wall_offset + wall_s`). A stage saves a snapshot at the first step
