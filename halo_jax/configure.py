@@ -12,7 +12,6 @@ over what the method sets:
 The command-line entry points do the same from their --config and --method
 flags (halo_jax/cli/__init__.py: config_of_flags).
 """
-import copy
 import importlib.util
 import os
 
@@ -36,7 +35,7 @@ def load_scene(spec: str):
 def as_method(scene, method: str, overrides=None):
   """A copy of the scene config `scene` made into `method`, then `overrides`
   ({dotted field: value}) set."""
-  c = methods.apply(copy.deepcopy(scene), method)
+  c = methods.apply(scene, method)   # a copy
   for field, value in (overrides or {}).items():
     set_field(c, field, value)
   return c

@@ -289,6 +289,12 @@ class EPINeRF(nn.Module):
     return sigma.reshape(shape), rgb.reshape(*shape, 3)
 
 
+def sin_cos_of(config) -> str:
+  """How a run's models evaluate sin and cos (config.sin_cos; older saved
+  configs have no field: the polynomials)."""
+  return config.get("sin_cos", "polynomial")
+
+
 def _nerf_kwargs(config, name):
   cfg, m = config[name], config[name].model
   base = config.lo.encoding if cfg.encoding.with_lo else None
@@ -298,7 +304,7 @@ def _nerf_kwargs(config, name):
                     use_viewdirs=m.use_viewdirs, dir_freqs=m.dir_freqs,
                     density_bias=m.density_bias,
                     density_activation=m.density_activation,
-                    compute_dtype=m.compute_dtype, sin_cos=config.get("sin_cos", "polynomial"))
+                    compute_dtype=m.compute_dtype, sin_cos=sin_cos_of(config))
 
 
 def _static_nerf(config, name):
@@ -322,7 +328,7 @@ def _epi_nerf(config, name):
                  theta_features=f.theta_features, uv_std=f.uv_std,
                  uv_features=f.uv_features, seed=f.seed, width=m.width, depth=m.depth,
                  skips=tuple(m.skips), density_bias=m.density_bias,
-                 compute_dtype=m.compute_dtype, sin_cos=config.get("sin_cos", "polynomial"))
+                 compute_dtype=m.compute_dtype, sin_cos=sin_cos_of(config))
 
 
 @dataclasses.dataclass(frozen=True)

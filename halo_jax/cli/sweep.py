@@ -19,7 +19,7 @@ import os
 from absl import app, flags
 from ml_collections import config_flags
 
-from halo_jax import config_files, datasets, pipeline, plots, stages, tables, tuning
+from halo_jax import config_files, configure, datasets, pipeline, plots, stages, tables, tuning
 from halo_jax.cli import config_of_flags, define_method_flag, run_in_workdir
 from halo_jax.stages import radiance
 
@@ -78,11 +78,7 @@ def parse_sweeps(config, specs):
 def apply(config, point):
   c = copy.deepcopy(config)
   for field, value in point:
-    *parents, leaf = field.split(".")
-    node = c
-    for p in parents:
-      node = node[p]
-    node[leaf] = value
+    configure.set_field(c, field, value)
   return c
 
 

@@ -66,7 +66,7 @@ def init_params(model, ray_model, seed):
 
 def models_from_config(config, name):
   cfg = config[name]
-  sin_cos = config.get("sin_cos", "polynomial")
+  sin_cos = models.sin_cos_of(config)
   ray_model = ray_fields.epi_ray_field_from_config(cfg.joint, sin_cos) \
       if _sampler(cfg).trains_guide else None
   return models.nerf_from_config(config, name), ray_model

@@ -78,7 +78,7 @@ def init_params(config, name, dataset):
     params["coarse"] = models.init_nerf(model, kind, config.seed + SEED_COARSE)
   if spec.trains_guide:
     ray_model = ray_fields.ray_field_from_config(config.ray, dataset.near, dataset.far,
-                                                 config.get("sin_cos", "polynomial"))
+                                                 models.sin_cos_of(config))
     params["ray"] = ray_fields.init_ray_field(ray_model, config.seed)
   return params
 
@@ -142,7 +142,7 @@ def _guide_setup(ctx: base.StageContext):
     return None, None, 0.0
   ray_cfg = ctx.config.ray if spec.trains_guide else ctx.states["ray"].config.ray
   model = ray_fields.ray_field_from_config(ray_cfg, ds.near, ds.far,
-                                           ctx.config.get("sin_cos", "polynomial"))
+                                           models.sin_cos_of(ctx.config))
   radius = ray_fields.guide_radius(ray_cfg, ds)
   frozen = None if spec.trains_guide else ctx.states["ray"].params["ray"]
   return model, frozen, radius

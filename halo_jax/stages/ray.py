@@ -8,7 +8,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from halo_jax import geometry, losses, parallel, ray_fields, raycast, registry, rng
+from halo_jax import geometry, losses, models, parallel, ray_fields, raycast, registry, rng
 from halo_jax.rays import Rays, Targets
 from halo_jax.stages import base, lo_targets, loop, microbatch
 from halo_jax.stages.state import StageState
@@ -33,7 +33,7 @@ def check(config, name, dspec):
 
 def init_params(config, name, dataset):
   model = ray_fields.ray_field_from_config(config[name], dataset.near, dataset.far,
-                                           config.get("sin_cos", "polynomial"))
+                                           models.sin_cos_of(config))
   return {"ray": ray_fields.init_ray_field(model, config.seed)}
 
 
@@ -98,7 +98,7 @@ def train(ctx: base.StageContext):
   cfg = ctx.cfg
   radius = ray_fields.guide_radius(cfg, ds)
   model = ray_fields.ray_field_from_config(cfg, ds.near, ds.far,
-                                           config.get("sin_cos", "polynomial"))
+                                           models.sin_cos_of(config))
   lo_samples = cfg.lo_samples or ctx.states[TEACHER].config.lo.sampler.num_samples
   n_random = int(round(cfg.batch_rays * cfg.random_fraction)) if cfg.bank_rays else 0
   microbatch.check_parts(cfg, cfg.batch_rays - n_random, f"{name}.batch_rays (training rays)", ctx.mesh)
