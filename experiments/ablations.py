@@ -275,6 +275,20 @@ STUDIES = {
             Variant("nerf_tuned", "nerf_tuned", note="the baseline, as in the suite"),
         ),
         reference="halo", seeds=2),
+    "authors_light_field": Study(
+        title="knights: HALO as the authors' code runs it against ours, on other grid views",
+        question=("Whether the authors' light-field recipe (methods/halo_authors.py: their "
+                  "axis-aligned encodings, a ray field as large as the radiance field with a "
+                  "colour head and random rays, their blended window and half-even samples, "
+                  "relu density with noise) does better than ours (`halo`) under the CPU "
+                  "protocol's time budget, and whether either leads nerf_tuned."),
+        scenes=tuple(s for s in suites.VALIDATION_SCENES if s.name == "knights"),
+        variants=(
+            Variant("halo", "halo", note="ours (the CPU config)"),
+            Variant("halo_authors", "halo_authors", note="the authors' recipe at CPU size"),
+            Variant("nerf_tuned", "nerf_tuned", note="the baseline, as in the suite"),
+        ),
+        reference="halo", seeds=2, budget="time"),
     "static_front": Study(
         title="Static scenes: what lifts HALO's front under the time budget",
         question=("Whether HALO reaches nerf_tuned's final PSNR sooner when Lo-NeRF gets less "

@@ -126,6 +126,8 @@ class FourierStream(enum.IntEnum):
   EPI_THETA = 1   # EPINeRF's theta
   EPI_UV = 2      # EPINeRF's view (u, v)
   RAY_FIELD = 3   # EPIRayField's (u, v, s, t)
+  NELF_UV = 4     # NeLFRayField's (u, v)
+  NELF_ST = 5     # NeLFRayField's (s, t)
 
 
 def fourier_matrix(seed: int, dim: int, num_features: int, std: float) -> np.ndarray:
@@ -165,3 +167,38 @@ def gaussian_fourier_features(x, matrix: np.ndarray, include_input: bool = True,
   both = trig.sin_cos_stacked(angles, sin_cos)
   feats = [both.reshape(*both.shape[:-2], -1)]
   return jnp.concatenate(([x] if include_input else []) + feats, axis=-1)
+
+
+def axis_frequencies(seed: int, num_features: int, std: float,
+                     num_drawn: int = 0) -> np.ndarray:
+  """Sorted |N(0, std^2)| scalar frequencies [num_features] (cycles per unit),
+  reproducible from `seed`: the authors' NormalEmbedder draws `num_drawn`
+  (default num_features), sorts their magnitudes and may keep the lowest few
+  (their colour heads read only the first sin/cos pairs)."""
+  drawn = max(num_drawn, num_features)
+  freqs = np.abs(np.random.default_rng(seed).standard_normal(drawn) * std)
+  return np.sort(freqs)[:num_features].astype(np.float32)
+
+
+def axis_fourier_features(x, freqs: np.ndarray, include_input: bool = False,
+                          sin_cos: str = "polynomial"):
+  """Axis-aligned Fourier features: every frequency applied to each coordinate
+  on its own (the authors' NormalEmbedder), not to oblique projections.
+
+  Ordered as theirs: for each frequency f_k, sin(2 pi f_k x_d) over d, then
+  cos(2 pi f_k x_d) over d.
+
+  Args:
+    x: [..., D] coordinates.
+    freqs: [F] frequencies in cycles per unit (host; see axis_frequencies).
+    include_input: prepend x (the authors' light-field embedders do not).
+    sin_cos: how sin and cos are evaluated (trig.KINDS; static).
+
+  Returns:
+    [..., D * include_input + 2 F D] features.
+  """
+  dim, num = x.shape[-1], len(freqs)
+  both = sin_cos_of_scaled(x, 2.0 * np.pi * np.asarray(freqs, np.float64), sin_cos)
+  both = jnp.swapaxes(both.reshape(*both.shape[:-1], num, dim), -3, -2)  # [..., F, 2, D]
+  feats = both.reshape(*both.shape[:-3], 2 * num * dim)
+  return jnp.concatenate([x, feats], -1) if include_input else feats

@@ -93,9 +93,56 @@ class EPIRayField(nn.Module):
     return tau, rgb.reshape(*rays.shape[:-1], 3)
 
 
+class NeLFRayField(nn.Module):
+  """The authors' two-plane ray field (their `NeLFEPIField`): (u, v, s, t) ->
+  tau_ray in [0, 1] and the ray's colour.
+
+  (u, v) and (s, t) get axis-aligned Fourier features (encoding.
+  axis_fourier_features, no input), `num_features` sorted frequencies per
+  coordinate of std `uv_std` and `std`; a `depth` x `width` ReLU trunk with
+  the features concatenated back in at `skips`; tau from one hidden layer;
+  the colour from one hidden layer over the trunk and all of (u, v)'s
+  features. Always has the colour head.
+  """
+  std: float = 5.09
+  uv_std: float = 0.17
+  num_features: int = 10
+  seed: int = 0
+  width: int = 256
+  depth: int = 8
+  skips: Sequence[int] = (4,)
+  sin_cos: str = "polynomial"
+  color: bool = True   # for the callers that ask; the head is always there
+
+  @nn.compact
+  def __call__(self, rays):
+    """Args: rays [..., 4] (u, v, s, t). Returns tau [...], rgb [..., 3]."""
+    rows = _rows(rays)
+    stream = encoding.FourierStream
+    feats = lambda x, s, std: encoding.axis_fourier_features(
+        x, encoding.axis_frequencies(self.seed + s, self.num_features, std),
+        sin_cos=self.sin_cos)
+    uv = feats(rows[:, :2], stream.NELF_UV, self.uv_std)
+    x = jnp.concatenate([uv, feats(rows[:, 2:], stream.NELF_ST, self.std)], -1)
+    h = MLP(self.width, self.depth, tuple(self.skips), name="trunk")(x)
+    tau_h = nn.relu(nn.Dense(self.width, name="tau_hidden")(h))
+    tau = nn.sigmoid(nn.Dense(1, name="head")(tau_h)[..., 0]) * 1.002 - 0.001
+    c = nn.relu(nn.Dense(self.width, name="color_hidden")(jnp.concatenate([h, uv], -1)))
+    rgb = nn.sigmoid(nn.Dense(3, name="color")(c)) * 1.002 - 0.001
+    return tau.reshape(rays.shape[:-1]), rgb.reshape(*rays.shape[:-1], 3)
+
+
 def epi_ray_field_from_config(joint_cfg, sin_cos: str = "polynomial"):
-  """EPIRayField of a stage's `joint` config; sin_cos: the run config's."""
-  m = joint_cfg.model
+  """The two-plane ray field of a stage's `joint` config (joint.field:
+  'oblique', EPIRayField; 'nelf', the authors' NeLFRayField); sin_cos: the
+  run config's."""
+  m, kind = joint_cfg.model, joint_cfg.get("field", "oblique")
+  if kind == "nelf":
+    return NeLFRayField(std=joint_cfg.std, uv_std=joint_cfg.uv_std,
+                        num_features=joint_cfg.num_features, seed=joint_cfg.seed,
+                        width=m.width, depth=m.depth, skips=tuple(m.skips), sin_cos=sin_cos)
+  if kind != "oblique":
+    raise ValueError(f"joint.field={kind!r}: use 'oblique' or 'nelf'")
   return EPIRayField(std=joint_cfg.std, num_features=joint_cfg.num_features,
                      seed=joint_cfg.seed, width=m.width, depth=m.depth, skips=tuple(m.skips),
                      uv_std=joint_cfg.uv_std, color=joint_cfg.color_weight > 0,

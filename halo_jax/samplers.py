@@ -7,6 +7,7 @@ midpoints and composites the N intervals with `render.volume_render`. (They
 also accept leading batch axes, [..., N + 1], for host-side callers.)
 """
 import dataclasses
+from typing import Callable, Optional
 
 import jax
 import jax.numpy as jnp
@@ -28,6 +29,9 @@ class SamplerSpec:
     trains_guide: the ray field that guides it trains in the same stage.
     geometries: the ray geometries it supports.
     dynamic: whether it works on a time-dependent field.
+    guided_edges: a guided sampler's own edges (key, guide_depth, near, far,
+      window, num_samples, num_full, randomized) -> [N + 1]; None: stratified
+      in depth_window, with_full_range's full-range samples.
   """
   guided: bool = False
   importance: bool = False
@@ -36,6 +40,7 @@ class SamplerSpec:
   trains_guide: bool = False
   geometries: frozenset = geometry.ALL
   dynamic: bool = True
+  guided_edges: Optional[Callable] = None
 
   def edges(self, sampler_cfg, key, near, far, *, guide_depth=None, window=None,
             num_full: int = 0, randomized: bool = True):
@@ -58,6 +63,9 @@ class SamplerSpec:
       n = sampler_cfg.num_coarse if self.importance else sampler_cfg.num_samples
       return stratified(key, near, far, n, randomized)
     window = sampler_cfg.window if window is None else window
+    if self.guided_edges is not None:
+      return self.guided_edges(key, guide_depth, near, far, window, sampler_cfg.num_samples,
+                               num_full, randomized)
     n_win, k_full = sampler_cfg.num_samples, None
     if num_full > 0:
       n_win -= num_full + 1
@@ -205,3 +213,81 @@ def hierarchical(key, t_edges, weights, num_samples: int, randomized: bool = Tru
   interp = jnp.vectorize(jnp.interp, signature="(n),(m),(m)->(n)")
   t = interp(u, cdf, jax.lax.stop_gradient(t_edges))
   return jnp.sort(t, axis=-1)
+
+
+def blended_window(guide, near, far, width):
+  """The authors' light-field sampling window (their update_sample_near_far).
+
+  Half-width width / 2 of the range around the guide, clipped to it, then
+  blended towards the range ends by 1 - width: [w lo' + (1 - w) near,
+  w hi' + (1 - w) far]. At width 1 it is the guide +- half the range; as
+  width falls the window narrows around the guide.
+
+  Args:
+    guide: [...] the ray field's depth.
+    near, far: the range (scalars or [...]).
+    width: w in (0, 1], the window's width as a share of the range (may be traced).
+
+  Returns:
+    (lo, hi), each [...].
+  """
+  near = jnp.asarray(near, jnp.float32)
+  far = jnp.asarray(far, jnp.float32)
+  half = 0.5 * width * (far - near)
+  lo = width * jnp.maximum(guide - half, near) + (1.0 - width) * near
+  hi = width * jnp.minimum(guide + half, far) + (1.0 - width) * far
+  return lo, hi
+
+
+def blended_edges_of(u_window, u_jitter, guide, near, far, width, num_full: int,
+                     randomized: bool = True):
+  """The authors' light-field samples as interval edges, from given uniforms.
+
+  `num_full` points evenly over [near, far] (ends included) and
+  len(u_window) points uniform in blended_window, sorted; when randomized
+  each point is moved uniformly within the half-gaps to its neighbours
+  (their perturb); the points are the left edges of their intervals, the
+  last interval as long as the one before it (their `dist`).
+
+  Args:
+    u_window: [M] uniforms in [0, 1) placing the window's points.
+    u_jitter: [num_full + M] uniforms for the perturbation.
+    guide, near, far, width: as blended_window (scalars: one ray).
+    num_full: K evenly spaced points.
+
+  Returns:
+    t_edges [K + M + 1], sorted.
+  """
+  lo, hi = blended_window(guide, near, far, width)
+  points = jnp.sort(jnp.concatenate([jnp.linspace(near, far, num_full),
+                                     lo + (hi - lo) * u_window]))
+  if randomized:
+    mids = 0.5 * (points[1:] + points[:-1])
+    upper = jnp.concatenate([mids, points[-1:]])
+    lower = jnp.concatenate([points[:1], mids])
+    points = lower + (upper - lower) * u_jitter
+  return jnp.concatenate([points, points[-1:] + (points[-1] - points[-2])])
+
+
+def blended_edges(key, guide_depth, near, far, window, num_samples: int, num_full: int,
+                  randomized: bool = True):
+  """blended_edges_of with its uniforms drawn from `key` (one ray): N =
+  num_samples intervals, num_full of their points evenly spaced, the rest in
+  the window (window: its width share, lightfield.alpha_schedule's value)."""
+  k_win, k_jit = jax.random.split(key)
+  num_window = num_samples - num_full
+  if randomized:
+    u_window = rng.uniform(k_win, (num_window,))
+  else:  # evaluation: the window's points evenly spread, not drawn
+    u_window = (jnp.arange(num_window) + 0.5) / num_window
+  u_jitter = rng.uniform(k_jit, (num_samples,))
+  return blended_edges_of(u_window, u_jitter, guide_depth, near, far, window, num_full,
+                          randomized)
+
+
+# The authors' light-field sampler: samples half evenly over the range, half
+# uniform in a window blended towards the range ends, around the depth of a
+# ray field trained with the stage.
+SAMPLERS.register("joint_blended", SamplerSpec(
+    guided=True, trains_guide=True, dynamic=False, guided_edges=blended_edges,
+    geometries=frozenset({geometry.Geometry.TWO_PLANE})))

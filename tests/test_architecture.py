@@ -133,12 +133,13 @@ def test_modules_and_functions_stay_small():
     (datasets.LOADERS, {"blender", "procedural", "dnerf", "llff", "stanford_lf", "capture",
                         "capture_ff"}),
     (models.MODELS, {"nerf", "deform", "epi"}),
-    (samplers.SAMPLERS, {"stratified", "hierarchical", "coarse_fine", "depth_guided", "joint"}),
+    (samplers.SAMPLERS, {"stratified", "hierarchical", "coarse_fine", "depth_guided", "joint",
+                           "joint_blended"}),
     (terms.TERMS, {"consist", "empty", "occlusion", "lf_consist", "lf_nerf_consist", "lf_color",
                    "lf_random", "unseen"}),
     (base.TRAINERS, {"radiance", "ray_field", "light_field"}),
     (METHODS, {"halo", "nerf_tuned", "nerf_paper", "freenerf", "halo+freenerf", "halo_auto",
-               "halo+unseen", "halo_joint"}),
+               "halo+unseen", "halo_joint", "halo_authors"}),
     (view_pairs.PAIR_KINDS, {"orbit", "orbit_time", "spiral", "uv"}),
 ])
 def test_registries_hold_every_entry(registry, expected):

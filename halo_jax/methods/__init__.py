@@ -12,8 +12,8 @@ command line's overrides).
 import copy
 
 from halo_jax import datasets, geometry, registry
-from halo_jax.methods import (freenerf, halo, halo_auto, halo_freenerf, halo_joint, halo_unseen,
-                              nerf_paper, nerf_tuned)
+from halo_jax.methods import (freenerf, halo, halo_authors, halo_auto, halo_freenerf, halo_joint,
+                              halo_unseen, nerf_paper, nerf_tuned)
 from halo_jax.methods.base import Method
 
 METHODS = registry.Registry[Method]("method")
@@ -25,6 +25,7 @@ METHODS.register("halo+freenerf", halo_freenerf.METHOD)
 METHODS.register("halo_auto", halo_auto.METHOD)
 METHODS.register("halo+unseen", halo_unseen.METHOD)
 METHODS.register("halo_joint", halo_joint.METHOD)
+METHODS.register("halo_authors", halo_authors.METHOD)
 
 def apply(config, name: str):
   """A copy of the scene config `config` turned into method `name` (METHODS).

@@ -44,6 +44,8 @@ def check(config, name, dspec):
                  "renders an 'epi' field")
   terms.check_geometries(cfg, name, dspec, f"data.kind={config.data.kind!r} "
                          f"({dspec.geometry.value} rays)")
+  registry.check(cfg.joint.get("field", "oblique") in ("oblique", "nelf"),
+                 f"{name}.joint.field={cfg.joint.get('field')!r}: use 'oblique' or 'nelf'")
   n_full = full_range_samples(cfg)
   registry.check(n_full == 0 or cfg.sampler.num_samples - n_full - 1 >= 1,
                  f"{name}.joint.full_range={cfg.joint.full_range}: its {n_full} full-range "

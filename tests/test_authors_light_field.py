@@ -1,0 +1,139 @@
+"""The authors' light-field pieces (methods/halo_authors.py) against numpy
+transcriptions of their code (lsongx/halo, static/vcnerf: NormalEmbedder,
+EPINeLFUvSt's sampler, NeLFEPIField's layer sizes) on fixed inputs."""
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from halo_jax import configure, encoding, lightfield, ray_fields, samplers
+
+
+def _their_normal_embedder(inputs, freqs):
+  """NormalEmbedder.forward with include_input=False, scale 1, shift 0: for
+  each frequency, sin then cos of inputs * f (inputs [N, D])."""
+  embeds = []
+  for f in freqs:
+    for func in (np.sin, np.cos):
+      embeds.append(func(inputs * f))
+  return np.concatenate(embeds, -1)
+
+
+@pytest.mark.parametrize("span", [1.0, 0.35])
+def test_axis_features_are_their_normal_embedder(span):
+  # Their coordinate spans `span` units where ours spans 2 (centred), their
+  # frequencies are radians per their unit: f = 4 pi b / span for our b.
+  # (An offset of their coordinate is a phase, which the first layer absorbs.)
+  rng = np.random.default_rng(0)
+  ours_x = rng.uniform(-1, 1, (7, 2)).astype(np.float32)
+  b = encoding.axis_frequencies(3, 10, 5.09)
+  theirs = _their_normal_embedder(ours_x.astype(np.float64) * span / 2,
+                                  b.astype(np.float64) * 4 * np.pi / span)
+  ours = np.asarray(encoding.axis_fourier_features(jnp.asarray(ours_x), b))
+  assert ours.shape == (7, 40)
+  np.testing.assert_allclose(ours, theirs, atol=2e-5)
+
+
+def test_axis_frequencies_are_sorted_half_normal():
+  f = encoding.axis_frequencies(0, 200000, 2.0)
+  assert np.all(f >= 0) and np.all(np.diff(f) >= 0)
+  # E|N(0, s^2)| = s sqrt(2 / pi)
+  assert abs(f.mean() - 2.0 * np.sqrt(2 / np.pi)) < 0.01
+  # keeping the lowest of a larger draw: the first few of the same sorted draw
+  np.testing.assert_array_equal(encoding.axis_frequencies(1, 1, 16.0, num_drawn=10),
+                                encoding.axis_frequencies(1, 10, 16.0)[:1])
+
+
+def _their_sampler(nelf_epi, near, far, it, converge_iter, converge_range, sample_num,
+                   rand_base, t_rand):
+  """EPINeLFUvSt.update_sample_near_far + get_epi_sample(perturb=True) for one
+  ray, with the uniforms given; returns the samples and their dist."""
+  if it > converge_iter:
+    percent = converge_range
+  else:
+    progress = it / converge_iter
+    percent = (1 - progress) + converge_range * progress
+  sample_near = nelf_epi - percent * (far - near) / 2
+  sample_near = near if sample_near < near else sample_near
+  sample_near = sample_near * percent + (1 - percent) * near
+  sample_far = nelf_epi + percent * (far - near) / 2
+  sample_far = far if sample_far > far else sample_far
+  sample_far = sample_far * percent + (1 - percent) * far
+  running = int(sample_num * percent / 2)
+  base = np.linspace(0, 1, running)
+  pred = rand_base[:running] * (sample_far - sample_near) + sample_near
+  s = np.sort(np.concatenate([base, pred]))
+  mids = 0.5 * (s[1:] + s[:-1])
+  upper = np.concatenate([mids, s[-1:]])
+  lower = np.concatenate([s[:1], mids])
+  s = lower + (upper - lower) * t_rand[:2 * running]
+  dist = s[1:] - s[:-1]
+  return s, np.concatenate([dist, dist[-1:]]), percent
+
+
+@pytest.mark.parametrize("guide, it", [(0.5, 0), (0.1, 5000), (0.93, 20000), (0.4, 30000)])
+def test_blended_sampler_is_theirs(guide, it):
+  # their raw range [0, 1] is our tau range at near 0, far 1
+  rng = np.random.default_rng(it)
+  rand_base, t_rand = rng.uniform(size=64), rng.uniform(size=128)
+  s, dist, percent = _their_sampler(guide, 0.0, 1.0, it, 20000, 0.5, 128, rand_base, t_rand)
+  width = float(lightfield.alpha_schedule(it, 20000, 0.5))
+  assert width == pytest.approx(percent, abs=1e-6)
+  half = len(s) // 2
+  edges = np.asarray(samplers.blended_edges_of(
+      jnp.asarray(rand_base[:half], jnp.float32), jnp.asarray(t_rand[:2 * half], jnp.float32),
+      guide, 0.0, 1.0, width, half))
+  np.testing.assert_allclose(edges[:-1], s, atol=1e-6)       # their points: our left edges
+  np.testing.assert_allclose(np.diff(edges), dist, atol=1e-6)  # their dist: our lengths
+
+
+def test_blended_window_narrows_around_the_guide_and_keeps_the_range():
+  lo, hi = samplers.blended_window(jnp.array([0.0, 0.5, 1.0]), 0.0, 1.0, 1.0)
+  np.testing.assert_allclose(lo, [0.0, 0.0, 0.5])
+  np.testing.assert_allclose(hi, [0.5, 1.0, 1.0])
+  lo, hi = samplers.blended_window(jnp.array(0.5), 0.0, 1.0, 0.5)
+  # half-width 0.25 around 0.5, then blended halfway to the ends
+  assert (float(lo), float(hi)) == pytest.approx((0.125, 0.875))
+
+
+def test_blended_eval_edges_are_deterministic_and_sorted():
+  a = samplers.blended_edges(jax.random.PRNGKey(0), 0.3, 0.0, 1.0, 0.5, 16, 8, False)
+  b = samplers.blended_edges(jax.random.PRNGKey(1), 0.3, 0.0, 1.0, 0.5, 16, 8, False)
+  np.testing.assert_array_equal(a, b)
+  assert a.shape == (17,) and np.all(np.diff(np.asarray(a)) >= 0)
+
+
+def _their_nelf_field_params(layers, hid, emb, color_uv):
+  """NeLFEPIField's parameter count (fc0..fc{layers-1}, skip at layers // 2,
+  nelf_epi_fc, nelf_epi_out, color_fc, color_out)."""
+  count = 2 * emb * hid + hid
+  for i in range(1, layers):
+    count += ((hid + 2 * emb) if i == layers // 2 else hid) * hid + hid
+  count += hid * hid + hid + hid + 1
+  count += (hid + color_uv) * hid + hid + hid * 3 + 3
+  return count
+
+
+def test_nelf_ray_field_has_their_layers():
+  model = ray_fields.NeLFRayField(width=256, depth=8, skips=(4,), num_features=10)
+  params = model.init(jax.random.PRNGKey(0), jnp.zeros((1, 4)))["params"]
+  count = sum(x.size for x in jax.tree_util.tree_leaves(params))
+  # their knights config: emb_dims = color_uv_dims = 2 * 2 * 10
+  assert count == _their_nelf_field_params(8, 256, 40, 40)
+  tau, rgb = model.apply({"params": params}, jnp.zeros((5, 4)))
+  assert tau.shape == (5,) and rgb.shape == (5, 3)
+
+
+def test_halo_authors_config_on_knights():
+  c = configure.load("configs/stanford_lf.py:knights", "halo_authors")
+  hi = c.hi
+  assert hi.sampler.kind == "joint_blended" and hi.joint.field == "nelf"
+  assert hi.fourier.axis and hi.fourier.uv_features == 1 and hi.fourier.uv_drawn == 10
+  assert (hi.joint.model.width, hi.joint.model.depth) == (256, 8)
+  assert hi.joint.random_rays == 512 and hi.joint.color_weight == 1.0
+  assert hi.model.density_activation == "relu" and hi.density_noise == 1.0
+
+
+def test_halo_authors_refuses_other_scene_kinds():
+  with pytest.raises(ValueError, match="halo_authors.*does not run"):
+    configure.load("configs/procedural.py:spheres_8view_cpu", "halo_authors")
