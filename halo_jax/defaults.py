@@ -144,12 +144,14 @@ def light_field_stage(cfg):
   # knights' 0.19 rad ~1. The colour gets the raw (u, v) (uv_features=0; the
   # input itself always reaches the colour), as the authors' colour reads
   # only its lowest sin/cos pair.
-  # axis: the authors' NormalEmbedder (per-coordinate sorted frequencies, the
-  # colour reading the lowest uv_features of uv_drawn) instead of Gaussian
-  # matrices.
+  # *_kind: each input's encoder (encoding.fourier_encode): 'gaussian'
+  # matrices, or the authors' 'axis' (NormalEmbedder) or 'octaves'
+  # (BaseEmbedder, std read as the scale); the colour reads the lowest
+  # uv_features of uv_drawn.
   cfg.fourier = ml_collections.ConfigDict(dict(
       st_std=5.09, st_features=10, theta_std=8.0, theta_features=5, uv_std=1.0,
-      uv_features=0, uv_drawn=0, axis=False, seed=0))
+      uv_features=0, uv_drawn=0, st_kind="gaussian", theta_kind="gaussian",
+      uv_kind="gaussian", seed=0))
   cfg.model.color_width = 0   # the colour's hidden layer (0: half the width)
   cfg.joint.update(
       # L_consist's tau_nerf: 'expected' (the paper) or 'max_weight'
@@ -172,8 +174,9 @@ def light_field_stage(cfg):
       nerf_consist_weight=0.0,
       # the ray field: 'oblique' (ray_fields.EPIRayField, Gaussian features
       # of (u, v, s, t); uv_std, where not 0, replaces std for (u, v)) or
-      # 'nelf' (the authors' NeLFRayField: num_features per coordinate)
-      field="oblique",
+      # 'nelf' (the authors' NeLFRayField: num_features per coordinate of
+      # kind uv_kind, st_kind; its colour reads (u, v)'s features with color_uv)
+      field="oblique", uv_kind="axis", st_kind="axis", color_uv=True,
       std=1.0, uv_std=0.0, num_features=16, seed=0, model=_model(width=128, depth=4))
   cfg.joint.model.skips = ()
   return cfg

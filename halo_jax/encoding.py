@@ -180,6 +180,22 @@ def axis_frequencies(seed: int, num_features: int, std: float,
   return np.sort(freqs)[:num_features].astype(np.float32)
 
 
+def octave_frequencies(num_features: int, scale: float) -> np.ndarray:
+  """The octaves 2^k / scale radians per unit, k = 0..num_features - 1, in
+  cycles per unit: the authors' BaseEmbedder (NeRF's positional encoding)
+  as axis_fourier_features' frequencies."""
+  return (2.0 ** np.arange(num_features) / (2.0 * np.pi * scale)).astype(np.float64)
+
+
+# Scalar frequencies per kind (config `*_kind`), all read as (seed, count, std
+# or scale, count drawn): 'axis' sorted half-normal draws of std `std`,
+# 'octaves' 2^k / `std` radians per unit (std is the scale s).
+SCALAR_KINDS = {
+    "axis": axis_frequencies,
+    "octaves": lambda seed, num, scale, drawn=0: octave_frequencies(num, scale),
+}
+
+
 def axis_fourier_features(x, freqs: np.ndarray, include_input: bool = False,
                           sin_cos: str = "polynomial"):
   """Axis-aligned Fourier features: every frequency applied to each coordinate
@@ -202,3 +218,17 @@ def axis_fourier_features(x, freqs: np.ndarray, include_input: bool = False,
   both = jnp.swapaxes(both.reshape(*both.shape[:-1], num, dim), -3, -2)  # [..., F, 2, D]
   feats = both.reshape(*both.shape[:-3], 2 * num * dim)
   return jnp.concatenate([x, feats], -1) if include_input else feats
+
+
+def fourier_encode(x, kind: str, seed: int, num_features: int, std: float, num_drawn: int = 0,
+                   sin_cos: str = "polynomial"):
+  """x [..., D] encoded by `kind`: 'gaussian' (gaussian_fourier_features of a
+  fourier_matrix, the input prepended) or a SCALAR_KINDS entry
+  (axis_fourier_features, no input). Returns [..., E]."""
+  if kind == "gaussian":
+    return gaussian_fourier_features(x, fourier_matrix(seed, x.shape[-1], num_features, std),
+                                     sin_cos=sin_cos)
+  if kind not in SCALAR_KINDS:
+    raise ValueError(f"encoder kind {kind!r}: use 'gaussian' or one of {sorted(SCALAR_KINDS)}")
+  return axis_fourier_features(x, SCALAR_KINDS[kind](seed, num_features, std, num_drawn),
+                               sin_cos=sin_cos)

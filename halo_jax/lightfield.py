@@ -36,19 +36,53 @@ def theta_of_tau(tau, theta_n, theta_f):
   return theta_n + (theta_f - theta_n) * tau
 
 
-def ray_points(uv, st, tau_edges, theta_n, theta_f):
+def depth_points(uv, st, tau, near, far, uv_star=(0.0, 0.0)):
+  """Aligns points on two-plane rays to the camera (u*, v*), the planes in
+  space (an LLFF scene's, datasets/llff_planes.py): the (u, v) plane through
+  the cameras, the (s, t) plane at distance `far` from it, both in one frame.
+
+  A point at distance d = near + tau (far - near) from the (u, v) plane lies
+  on the line from u* that meets the (s, t) plane at
+  s' = s + (u - u*) (far - d) / d.
+
+  Args:
+    uv, st: [..., 2] the rays' plane coordinates.
+    tau: [...] the points' depth fraction in [0, 1].
+    near, far: the depth range; far is also the (s, t) plane's distance.
+
+  Returns:
+    [..., 3] points (s', t', tau).
+  """
+  d = near + (far - near) * tau
+  slope = (far - d) / d
+  aligned = st + (uv - jnp.asarray(uv_star, uv.dtype)) * slope[..., None]
+  return jnp.concatenate([aligned, tau[..., None]], -1)
+
+
+# How a two-plane dataset's [near, far] reads (Dataset.epi_slope): 'angle',
+# EPI angles theta (the Stanford archive's grid); 'depth', distances from
+# the (u, v) plane, the (s, t) plane at far (planes placed in a 3D scene).
+SLOPES = ("angle", "depth")
+
+
+def ray_points(uv, st, tau_edges, theta_n, theta_f, slope: str = "angle"):
   """One two-plane ray's points at the midpoints of its intervals in tau.
 
   Args:
     uv, st: [2] the ray.
     tau_edges: [N + 1] sorted interval edges in [0, 1].
-    theta_n, theta_f: the angle range tau spans.
+    theta_n, theta_f: the range tau spans (angles, or depths: `slope`).
+    slope: SLOPES.
 
   Returns:
-    points [N, 3] (s', t', theta) and the field's view input, uv [N, 2].
+    points [N, 3] ((s', t', theta) or (s', t', tau)) and the field's view
+    input, uv [N, 2].
   """
-  theta = theta_of_tau(render.interval_midpoints(tau_edges), theta_n, theta_f)
-  points = epi_points(uv[None, :], st[None, :], theta)
+  tau = render.interval_midpoints(tau_edges)
+  if slope == "depth":
+    points = depth_points(uv[None, :], st[None, :], tau, theta_n, theta_f)
+  else:
+    points = epi_points(uv[None, :], st[None, :], theta_of_tau(tau, theta_n, theta_f))
   return points, jnp.broadcast_to(uv, (*points.shape[:-1], 2))
 
 

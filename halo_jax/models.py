@@ -241,12 +241,14 @@ class EPINeRF(nn.Module):
 
   Points are (s', t', theta): the image-plane position aligned to the central
   view and the EPI angle; the view input is the camera-plane (u, v). Inputs
-  are encoded with Fourier features: s', t' with std `st_std`, theta with
-  `theta_std`, u, v with `uv_std` (counts `*_features`, fixed frequencies
-  from `seed`). `axis=False`: Gaussian matrices (oblique projections, the
-  input prepended); `axis=True`: the authors' NormalEmbedder, `*_features`
-  sorted scalar frequencies applied to each coordinate, no input, the colour
-  reading the lowest `uv_features` of `uv_drawn` drawn.
+  are encoded with Fourier features: s', t' with std `st_std`,
+  theta with `theta_std`, u, v with `uv_std` (counts `*_features`, fixed
+  frequencies from `seed`). Each input's `*_kind` picks its encoder:
+  'gaussian' Gaussian matrices (oblique projections, the input prepended);
+  'axis' the authors' NormalEmbedder (sorted scalar frequencies applied to
+  each coordinate, no input); 'octaves' their BaseEmbedder (2^k / std, std
+  read as the scale). The colour reads the lowest `uv_features` of
+  `uv_drawn` drawn.
   """
   st_std: float = 5.09
   st_features: int = 10
@@ -255,7 +257,9 @@ class EPINeRF(nn.Module):
   uv_std: float = 1.0
   uv_features: int = 0
   uv_drawn: int = 0
-  axis: bool = False
+  st_kind: str = "gaussian"
+  theta_kind: str = "gaussian"
+  uv_kind: str = "gaussian"
   seed: int = 0
   width: int = 256
   depth: int = 8
@@ -266,13 +270,8 @@ class EPINeRF(nn.Module):
   compute_dtype: str = "float32"   # as in NeRFMLP
   sin_cos: str = "polynomial"      # as in NeRFMLP
 
-  def _encode(self, x, stream, num, std, drawn=0):
-    seed = self.seed + stream
-    if self.axis:
-      return encoding.axis_fourier_features(
-          x, encoding.axis_frequencies(seed, num, std, drawn), sin_cos=self.sin_cos)
-    return encoding.gaussian_fourier_features(
-        x, encoding.fourier_matrix(seed, x.shape[-1], num, std), sin_cos=self.sin_cos)
+  def _encode(self, x, kind, stream, num, std, drawn=0):
+    return encoding.fourier_encode(x, kind, self.seed + stream, num, std, drawn, self.sin_cos)
 
   @nn.compact
   def __call__(self, points, viewdirs, density_noise_key=None, density_noise=0.0):
@@ -284,13 +283,15 @@ class EPINeRF(nn.Module):
     points, viewdirs = _rows(points), _rows(jnp.broadcast_to(viewdirs, (*shape, 2)))
     stream = encoding.FourierStream
     x = jnp.concatenate([
-        self._encode(points[..., :2], stream.EPI_ST, self.st_features, self.st_std),
-        self._encode(points[..., 2:], stream.EPI_THETA, self.theta_features, self.theta_std)],
-        -1)
+        self._encode(points[..., :2], self.st_kind, stream.EPI_ST, self.st_features,
+                     self.st_std),
+        self._encode(points[..., 2:], self.theta_kind, stream.EPI_THETA, self.theta_features,
+                     self.theta_std)], -1)
     h = MLP(self.width, self.depth, tuple(self.skips), self.compute_dtype, name="trunk")(x)
     sigma = _density(h, density_noise_key, density_noise, self.density_bias, shape,
                      self.density_activation)
-    v = self._encode(viewdirs, stream.EPI_UV, self.uv_features, self.uv_std, self.uv_drawn)
+    v = self._encode(viewdirs, self.uv_kind, stream.EPI_UV, self.uv_features, self.uv_std,
+                     self.uv_drawn)
     feat = dense(self.width, self.compute_dtype, "bottleneck")(h)
     h = nn.relu(dense(self.color_width or self.width // 2, self.compute_dtype, "view")(
         jnp.concatenate([feat, v], -1)))
@@ -336,7 +337,8 @@ def _epi_nerf(config, name):
   return EPINeRF(st_std=f.st_std, st_features=f.st_features, theta_std=f.theta_std,
                  theta_features=f.theta_features, uv_std=f.uv_std,
                  uv_features=f.uv_features, uv_drawn=f.get("uv_drawn", 0),
-                 axis=f.get("axis", False), seed=f.seed, width=m.width, depth=m.depth,
+                 st_kind=f.get("st_kind", "gaussian"), theta_kind=f.get("theta_kind", "gaussian"),
+                 uv_kind=f.get("uv_kind", "gaussian"), seed=f.seed, width=m.width, depth=m.depth,
                  skips=tuple(m.skips), color_width=m.get("color_width", 0),
                  density_bias=m.density_bias,
                  density_activation=m.get("density_activation", "softplus"),

@@ -97,16 +97,20 @@ class NeLFRayField(nn.Module):
   """The authors' two-plane ray field (their `NeLFEPIField`): (u, v, s, t) ->
   tau_ray in [0, 1] and the ray's colour.
 
-  (u, v) and (s, t) get axis-aligned Fourier features (encoding.
-  axis_fourier_features, no input), `num_features` sorted frequencies per
-  coordinate of std `uv_std` and `std`; a `depth` x `width` ReLU trunk with
-  the features concatenated back in at `skips`; tau from one hidden layer;
-  the colour from one hidden layer over the trunk and all of (u, v)'s
-  features. Always has the colour head.
+  (u, v) and (s, t) get per-coordinate Fourier features (encoding.
+  fourier_encode of kind `uv_kind`, `st_kind`: 'axis' of std `uv_std`,
+  `std`, or 'octaves' of that scale), `num_features` per coordinate; a
+  `depth` x `width` ReLU trunk with the features concatenated back in at
+  `skips`; tau from one hidden layer; the colour from one hidden layer over
+  the trunk and, with `color_uv`, all of (u, v)'s features. Always has the
+  colour head.
   """
   std: float = 5.09
   uv_std: float = 0.17
   num_features: int = 10
+  uv_kind: str = "axis"
+  st_kind: str = "axis"
+  color_uv: bool = True
   seed: int = 0
   width: int = 256
   depth: int = 8
@@ -119,15 +123,15 @@ class NeLFRayField(nn.Module):
     """Args: rays [..., 4] (u, v, s, t). Returns tau [...], rgb [..., 3]."""
     rows = _rows(rays)
     stream = encoding.FourierStream
-    feats = lambda x, s, std: encoding.axis_fourier_features(
-        x, encoding.axis_frequencies(self.seed + s, self.num_features, std),
-        sin_cos=self.sin_cos)
-    uv = feats(rows[:, :2], stream.NELF_UV, self.uv_std)
-    x = jnp.concatenate([uv, feats(rows[:, 2:], stream.NELF_ST, self.std)], -1)
-    h = MLP(self.width, self.depth, tuple(self.skips), name="trunk")(x)
+    uv = encoding.fourier_encode(rows[:, :2], self.uv_kind, self.seed + stream.NELF_UV,
+                                 self.num_features, self.uv_std, sin_cos=self.sin_cos)
+    st = encoding.fourier_encode(rows[:, 2:], self.st_kind, self.seed + stream.NELF_ST,
+                                 self.num_features, self.std, sin_cos=self.sin_cos)
+    h = MLP(self.width, self.depth, tuple(self.skips), name="trunk")(jnp.concatenate([uv, st], -1))
     tau_h = nn.relu(nn.Dense(self.width, name="tau_hidden")(h))
     tau = nn.sigmoid(nn.Dense(1, name="head")(tau_h)[..., 0]) * 1.002 - 0.001
-    c = nn.relu(nn.Dense(self.width, name="color_hidden")(jnp.concatenate([h, uv], -1)))
+    c = jnp.concatenate([h, uv], -1) if self.color_uv else h
+    c = nn.relu(nn.Dense(self.width, name="color_hidden")(c))
     rgb = nn.sigmoid(nn.Dense(3, name="color")(c)) * 1.002 - 0.001
     return tau.reshape(rays.shape[:-1]), rgb.reshape(*rays.shape[:-1], 3)
 
@@ -139,7 +143,10 @@ def epi_ray_field_from_config(joint_cfg, sin_cos: str = "polynomial"):
   m, kind = joint_cfg.model, joint_cfg.get("field", "oblique")
   if kind == "nelf":
     return NeLFRayField(std=joint_cfg.std, uv_std=joint_cfg.uv_std,
-                        num_features=joint_cfg.num_features, seed=joint_cfg.seed,
+                        num_features=joint_cfg.num_features,
+                        uv_kind=joint_cfg.get("uv_kind", "axis"),
+                        st_kind=joint_cfg.get("st_kind", "axis"),
+                        color_uv=joint_cfg.get("color_uv", True), seed=joint_cfg.seed,
                         width=m.width, depth=m.depth, skips=tuple(m.skips), sin_cos=sin_cos)
   if kind != "oblique":
     raise ValueError(f"joint.field={kind!r}: use 'oblique' or 'nelf'")

@@ -7,6 +7,7 @@ midpoints and composites the N intervals with `render.volume_render`. (They
 also accept leading batch axes, [..., N + 1], for host-side callers.)
 """
 import dataclasses
+import functools
 from typing import Callable, Optional
 
 import jax
@@ -270,14 +271,17 @@ def blended_edges_of(u_window, u_jitter, guide, near, far, width, num_full: int,
 
 
 def blended_edges(key, guide_depth, near, far, window, num_samples: int, num_full: int,
-                  randomized: bool = True):
+                  randomized: bool = True, even: bool = False):
   """blended_edges_of with its uniforms drawn from `key` (one ray): N =
   num_samples intervals, num_full of their points evenly spaced, the rest in
-  the window (window: its width share, lightfield.alpha_schedule's value)."""
+  the window (window: its width share, lightfield.alpha_schedule's value),
+  drawn uniformly there or, with `even`, evenly spaced (then jittered)."""
   k_win, k_jit = jax.random.split(key)
   num_window = num_samples - num_full
-  if randomized:
+  if randomized and not even:
     u_window = rng.uniform(k_win, (num_window,))
+  elif even:  # their LLFF sampler: evenly over the window, ends included
+    u_window = jnp.linspace(0.0, 1.0, num_window)
   else:  # evaluation: the window's points evenly spread, not drawn
     u_window = (jnp.arange(num_window) + 0.5) / num_window
   u_jitter = rng.uniform(k_jit, (num_samples,))
@@ -290,4 +294,9 @@ def blended_edges(key, guide_depth, near, far, window, num_samples: int, num_ful
 # ray field trained with the stage.
 SAMPLERS.register("joint_blended", SamplerSpec(
     guided=True, trains_guide=True, dynamic=False, guided_edges=blended_edges,
+    geometries=frozenset({geometry.Geometry.TWO_PLANE})))
+# Their LLFF light field's: every sample evenly over the blended window.
+SAMPLERS.register("joint_blended_even", SamplerSpec(
+    guided=True, trains_guide=True, dynamic=False,
+    guided_edges=functools.partial(blended_edges, even=True),
     geometries=frozenset({geometry.Geometry.TWO_PLANE})))

@@ -131,10 +131,10 @@ def test_modules_and_functions_stay_small():
 
 @pytest.mark.parametrize("registry, expected", [
     (datasets.LOADERS, {"blender", "procedural", "dnerf", "llff", "stanford_lf", "capture",
-                        "capture_ff"}),
+                        "capture_ff", "llff_planes"}),
     (models.MODELS, {"nerf", "deform", "epi"}),
     (samplers.SAMPLERS, {"stratified", "hierarchical", "coarse_fine", "depth_guided", "joint",
-                           "joint_blended"}),
+                           "joint_blended", "joint_blended_even"}),
     (terms.TERMS, {"consist", "empty", "occlusion", "lf_consist", "lf_nerf_consist", "lf_color",
                    "lf_random", "unseen"}),
     (base.TRAINERS, {"radiance", "ray_field", "light_field"}),

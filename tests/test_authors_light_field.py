@@ -128,7 +128,7 @@ def test_halo_authors_config_on_knights():
   c = configure.load("configs/stanford_lf.py:knights", "halo_authors")
   hi = c.hi
   assert hi.sampler.kind == "joint_blended" and hi.joint.field == "nelf"
-  assert hi.fourier.axis and hi.fourier.uv_features == 1 and hi.fourier.uv_drawn == 10
+  assert hi.fourier.st_kind == "axis" and hi.fourier.uv_features == 1 and hi.fourier.uv_drawn == 10
   assert (hi.joint.model.width, hi.joint.model.depth) == (256, 8)
   assert hi.joint.random_rays == 512 and hi.joint.color_weight == 1.0
   assert hi.model.density_activation == "relu" and hi.density_noise == 1.0
@@ -137,3 +137,50 @@ def test_halo_authors_config_on_knights():
 def test_halo_authors_refuses_other_scene_kinds():
   with pytest.raises(ValueError, match="halo_authors.*does not run"):
     configure.load("configs/procedural.py:spheres_8view_cpu", "halo_authors")
+
+
+def test_depth_points_align_a_scene_point_seen_from_two_cameras():
+  # a slab in a tilted frame; a 3D point seen from two camera centres off
+  # the (u, v) plane: aligned to u* = 0, both rays give the same (s', t')
+  # at the point's depth (the closed form of their sample_st_by_epi)
+  from halo_jax.datasets import llff_planes
+  rot = np.linalg.qr(np.random.default_rng(1).normal(size=(3, 3)))[0]
+  slab = llff_planes.LightSlab(np.array([0.1, -0.2, 0.3]), rot[:, 0], rot[:, 1], rot[:, 2], 6.0)
+  near, far = 1.2, slab.far
+  x = slab.origin + 0.4 * rot[:, 0] - 0.3 * rot[:, 1] + 3.5 * rot[:, 2]
+  centres = np.stack([slab.origin + 0.2 * rot[:, 0] + 0.05 * rot[:, 2],
+                      slab.origin - 0.3 * rot[:, 1] - 0.02 * rot[:, 2]])
+  uv, st = slab.coords(centres, x - centres)
+  tau = (3.5 - near) / (far - near)
+  pts = np.asarray(lightfield.depth_points(jnp.asarray(uv), jnp.asarray(st),
+                                           jnp.full((2,), tau, jnp.float32), near, far))
+  np.testing.assert_allclose(pts[0, :2], pts[1, :2], atol=1e-5)
+  # and it is where the central camera's ray through the point meets the (s, t) plane
+  np.testing.assert_allclose(pts[0, :2], np.array([0.4, -0.3]) * far / 3.5, atol=1e-5)
+
+
+def test_even_blended_sampler_spreads_the_window_evenly():
+  edges = np.asarray(samplers.blended_edges(jax.random.PRNGKey(0), 0.5, 0.0, 1.0, 0.1, 8, 0,
+                                            False, even=True))
+  lo, hi = (float(v) for v in samplers.blended_window(jnp.array(0.5), 0.0, 1.0, 0.1))
+  np.testing.assert_allclose(edges[:-1], np.linspace(lo, hi, 8), atol=1e-6)
+
+
+def test_halo_authors_on_llff_is_their_light_field_on_two_planes():
+  c = configure.load("configs/llff.py:fern_4view_cpu", "halo_authors")
+  assert c.data.kind == "llff_planes" and c.stages == "hi" and c.hi.kind == "light_field"
+  assert c.hi.sampler.kind == "joint_blended_even" and c.hi.joint.target == "max_weight"
+  assert c.hi.joint.random_rays == c.hi.batch_rays and not c.hi.joint.color_uv
+  assert c.hi.fourier.st_kind == "octaves" and c.hi.fourier.theta_features == 10
+
+
+def test_octave_features_are_their_base_embedder():
+  # BaseEmbedder.__call__ with include_input=False: for each 2^k, sin then
+  # cos of inputs / scale * 2^k (their LLFF (s, t) at scale 8, depth at 1)
+  x = np.random.default_rng(2).uniform(-4, 4, (6, 2))
+  for scale in (8.0, 1.0):
+    freqs = 2.0 ** np.linspace(0, 9, 10)
+    theirs = np.concatenate([f(x / scale * k) for k in freqs for f in (np.sin, np.cos)], -1)
+    ours = encoding.axis_fourier_features(jnp.asarray(x, jnp.float32),
+                                          encoding.octave_frequencies(10, scale))
+    np.testing.assert_allclose(np.asarray(ours), theirs, atol=3e-5)

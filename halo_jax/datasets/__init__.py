@@ -7,7 +7,7 @@ import os
 from typing import Callable
 
 from halo_jax import registry
-from halo_jax.datasets import blender, capture, dnerf, llff, procedural, stanford_lf
+from halo_jax.datasets import blender, capture, dnerf, llff, llff_planes, procedural, stanford_lf
 from halo_jax.datasets.base import (ORBIT, ORBIT_TIME, SPIRAL, UV_PLANE, DataError, Dataset,
                                     SceneFacts, Views, camera_radius, spread_views, view_names)
 from halo_jax.geometry import Geometry
@@ -58,6 +58,20 @@ def _load_llff(cfg, workdir="") -> Dataset:
                  depth_bounds=llff.read_poses(root)[3])
 
 
+def _load_llff_planes(cfg, workdir="") -> Dataset:
+  """An LLFF scene as a two-plane light field (llff_planes): near / far are
+  distances from the (u, v) plane, the (s, t) plane at far."""
+  root = _root(cfg, "/path/to/nerf_llff_data/<scene>")
+  names = llff.split_names(root, cfg.factor)
+  slab, near, far = llff_planes.slab_of(root)
+  train = llff_planes.load_views(root, cfg.factor, view_names(cfg.train_views, names) or names,
+                                 slab)
+  test = llff_planes.load_views(root, cfg.factor, view_names(cfg.test_views, names) or names,
+                                slab)
+  return Dataset(train, test, near, far, 0.0, bool(cfg.white_background), Geometry.TWO_PLANE,
+                 epi_slope="depth")
+
+
 def _blender_split_names(root, split):
   _, meta = blender._read_transforms(root, split)  # pylint: disable=protected-access
   return [blender.view_name(fr["file_path"]) for fr in meta["frames"]]
@@ -101,6 +115,10 @@ LOADERS.register("procedural", DatasetSpec(_load_procedural, Geometry.SPHERE, OR
 LOADERS.register("dnerf", DatasetSpec(_load_dnerf, Geometry.SPHERE, ORBIT_TIME, dynamic=True))
 LOADERS.register("llff", DatasetSpec(_load_llff, Geometry.NDC, SPIRAL))
 LOADERS.register("stanford_lf", DatasetSpec(_load_light_field, Geometry.TWO_PLANE, UV_PLANE))
+# LLFF photos cut by two planes (the authors' LLFF light field): no camera
+# paths yet, no view pairs for the frequency rule
+LOADERS.register("llff_planes", DatasetSpec(_load_llff_planes, Geometry.TWO_PLANE, SceneFacts(
+    "", (), "depth fraction tau in [0, 1] between the near and far planes")))
 # your own photos (datasets/capture.py): 360-degree, and forward-facing in NDC
 LOADERS.register("capture", DatasetSpec(capture.load_sphere, Geometry.SPHERE, ORBIT))
 LOADERS.register("capture_ff", DatasetSpec(capture.load_forward, Geometry.NDC, SPIRAL))
@@ -119,4 +137,4 @@ def load(cfg, workdir: str = "") -> Dataset:
 
 __all__ = ["DataError", "Dataset", "DatasetSpec", "LOADERS", "SceneFacts", "Views", "load", "spread_views",
            "spec_of",
-           "blender", "capture", "dnerf", "llff", "procedural", "stanford_lf"]
+           "blender", "capture", "dnerf", "llff", "llff_planes", "procedural", "stanford_lf"]

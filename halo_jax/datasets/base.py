@@ -93,6 +93,8 @@ class Dataset:
       scene (LLFF's poses_bounds, scaled as the poses are), which place its
       spiral paths; else None.
     facts: its kind's SceneFacts (datasets.load sets its registry entry's).
+    epi_slope: TWO_PLANE: how near / far read (lightfield.SLOPES): EPI angles
+      ('angle'), or distances from the (u, v) plane ('depth').
   """
   train: Views
   test: Views
@@ -103,6 +105,7 @@ class Dataset:
   geometry: Geometry = Geometry.SPHERE
   depth_bounds: Optional[np.ndarray] = None
   facts: SceneFacts = ORBIT
+  epi_slope: str = "angle"
 
   @property
   def dynamic(self) -> bool:

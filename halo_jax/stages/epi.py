@@ -94,7 +94,7 @@ def ray_field_tau(ray_model, params, uv, st):
 
 
 def render_rays(model, ray_model, cfg, params, rays: Rays, key, alpha, *, theta_n, theta_f,
-                randomized, noise=0.0):
+                randomized, noise=0.0, slope="angle"):
   """Renders two-plane rays with the stage's sampler.
 
   Args:
@@ -105,7 +105,8 @@ def render_rays(model, ray_model, cfg, params, rays: Rays, key, alpha, *, theta_
     rays: rays.Rays [R], origins (u, v, 0) and dirs (s, t, 1).
     key: per-ray keys [R, 2], or one key when nothing is drawn.
     alpha: the joint window scale (scalar).
-    theta_n, theta_f: the angle range.
+    theta_n, theta_f: the range tau spans (angles; depths with slope 'depth').
+    slope: how the range reads (lightfield.SLOPES, the dataset's epi_slope).
     randomized: jitter samples; noise: density noise std.
 
   Returns:
@@ -124,7 +125,8 @@ def render_rays(model, ray_model, cfg, params, rays: Rays, key, alpha, *, theta_
   edges = functools.partial(spec.edges, cfg.sampler, near=0.0, far=1.0, window=alpha,
                             num_full=full_range_samples(cfg), randomized=randomized)
   t = jax.vmap(lambda k, g: edges(k, guide_depth=g))(k_s, guide)
-  points = functools.partial(lightfield.ray_points, theta_n=theta_n, theta_f=theta_f)
+  points = functools.partial(lightfield.ray_points, theta_n=theta_n, theta_f=theta_f,
+                             slope=slope)
   out = raycast.composite(model, params["nerf"], uv, st, t, False, k_n, noise,
                           points_of=points)
   out["tau_ray"], out["rgb_ray"] = tau_ray, rgb_ray
@@ -159,7 +161,7 @@ def with_random_background(rgb, acc, keys):
 
 
 def loss_fn(params, data: batches.StageData, key, step, part=None, *, model, ray_model, cfg,
-            theta_n, theta_f, mesh=None):
+            theta_n, theta_f, mesh=None, slope="angle"):
   """L_rec plus the stage's active loss terms (terms.TERMS: the light-field
   ones below) on the batch, or on its `part` (microbatch.part_of)."""
   k_idx, k_ren = jax.random.split(key)
@@ -171,13 +173,13 @@ def loss_fn(params, data: batches.StageData, key, step, part=None, *, model, ray
   batch = Batch(px.rays.take(idx), px.rgb[idx], idx)
   window = joint_window(cfg, step)
   out = render_rays(model, ray_model, cfg, params, batch.rays, keys, window, theta_n=theta_n,
-                    theta_f=theta_f, randomized=True, noise=cfg.density_noise)
+                    theta_f=theta_f, randomized=True, noise=cfg.density_noise, slope=slope)
   if cfg.random_background:
     out = dict(out, rgb=with_random_background(out["rgb"], out["acc"], keys))
   # fold_in leaves the training rays' keys as they are whatever the terms draw
   x = terms.Inputs(params, model, [out], batch, data, (jax.random.fold_in(key, 1),), part, mesh,
                    theta_n, theta_f, False, None,
-                   {"ray_model": ray_model, "window": window, "step": step})
+                   {"ray_model": ray_model, "window": window, "step": step, "slope": slope})
   loss, aux = terms.total(cfg, step, x, terms.active_terms(cfg))
   if out["tau_ray"] is not None:
     aux["alpha"] = window
@@ -212,7 +214,8 @@ def _random_value(x, cfg):
   random, color = _random_ray_consist(x.params, x.data.terms["lf_random"], x.keys[0],
                                       x.extra["step"],
                                       x.part, model=x.model, ray_model=x.extra["ray_model"],
-                                      cfg=cfg, theta_n=x.near, theta_f=x.far, mesh=x.mesh)
+                                      cfg=cfg, theta_n=x.near, theta_f=x.far, mesh=x.mesh,
+                                      slope=x.extra["slope"])
   value, aux = cfg.joint.consist_weight * random, {"consist_random": random}
   if color is not None:
     value = value + cfg.joint.color_weight * color
@@ -239,12 +242,12 @@ terms.TERMS.register("lf_random", terms.Term(
     geometries=_TWO_PLANE))
 
 
-def _random_ray_consist(params, uv_box, key, step, part, *, model, ray_model, cfg, theta_n,
-                        theta_f, mesh=None):
+def _random_ray_consist(params, box, key, step, part, *, model, ray_model, cfg, theta_n,
+                        theta_f, mesh=None, slope="angle"):
   """L_consist on joint.random_rays rays between the training cameras.
 
-  uv uniform in the training cameras' box uv_box [2 (min, max), 2], st
-  uniform in [-1, 1]. The radiance field is rendered with the current window
+  (u, v, s, t) uniform in the training rays' box [2 (min, max), 4]
+  (camera_box). The radiance field is rendered with the current window
   but held fixed (stop_gradient): only the ray field learns here, following
   the radiance field at views no camera saw, where held-out views lie. With
   a colour head the ray field's colour also follows the radiance field's.
@@ -254,14 +257,14 @@ def _random_ray_consist(params, uv_box, key, step, part, *, model, ray_model, cf
   """
   n = cfg.joint.random_rays
   k_uv, k_st, k_ren = jax.random.split(key, 3)
-  uv = jax.random.uniform(k_uv, (n, 2), minval=uv_box[0], maxval=uv_box[1])
-  st = jax.random.uniform(k_st, (n, 2), minval=-1.0, maxval=1.0)
+  uv = jax.random.uniform(k_uv, (n, 2), minval=box[0, :2], maxval=box[1, :2])
+  st = jax.random.uniform(k_st, (n, 2), minval=box[0, 2:], maxval=box[1, 2:])
   keys = jax.random.split(k_ren, n)
   uv, st, keys = (parallel.shard_batch(microbatch.part_of(x, part), mesh) for x in (uv, st, keys))
   frozen = dict(params, nerf=jax.lax.stop_gradient(params["nerf"]))
   rays = two_plane_rays(uv, st)
   out = render_rays(model, ray_model, cfg, frozen, rays, keys, joint_window(cfg, step),
-                    theta_n=theta_n, theta_f=theta_f, randomized=True)
+                    theta_n=theta_n, theta_f=theta_f, randomized=True, slope=slope)
   consist = consist_loss(out, cfg.joint.target)
   if out["rgb_ray"] is None:
     return consist, None
@@ -275,19 +278,21 @@ def two_plane_rays(uv, st) -> Rays:
 
 
 def camera_box(pixels):
-  """The box of the training cameras' (u, v), [2 (min, max), 2] (numpy), where
-  the random rays of L_consist are drawn."""
-  uv = pixels.rays.origins[:, :2]
-  return np.stack([uv.min(0), uv.max(0)])
+  """The box of the training rays' (u, v, s, t), [2 (min, max), 4] (numpy),
+  where the random rays of L_consist are drawn: (u, v) between the
+  training cameras; (s, t) [-1, 1] where the image plane is the grid's, the
+  rays' own extent where the planes were placed in a scene."""
+  uvst = np.concatenate([pixels.rays.origins[:, :2], pixels.rays.dirs[:, :2]], -1)
+  return np.stack([uvst.min(0), uvst.max(0)])
 
 
-def make_eval_fn(model, ray_model, cfg, theta_n, theta_f, block_rays=0):
+def make_eval_fn(model, ray_model, cfg, theta_n, theta_f, block_rays=0, slope="angle"):
   """Jitted ((params, alpha), origins, dirs) -> raycast.eval_outputs (depth:
   expected tau), rays as LightFieldViews.rays() gives them (raycast.jit_eval)."""
   def render_final(state, rays):
     params, alpha = state
     return render_rays(model, ray_model, cfg, params, rays, jax.random.PRNGKey(0), alpha,
-                       theta_n=theta_n, theta_f=theta_f, randomized=False)
+                       theta_n=theta_n, theta_f=theta_f, randomized=False, slope=slope)
   return raycast.jit_eval(render_final, block_rays)
 
 
@@ -302,8 +307,10 @@ def train(ctx: base.StageContext):
   data = jax.device_put(terms.stage_data(ctx, cfg, batches.pixels_of(dataset.train, None),
                                          terms.active_terms(cfg)))
   step_loss = functools.partial(loss_fn, model=model, ray_model=ray_model, cfg=cfg,
-                                theta_n=theta_n, theta_f=theta_f, mesh=ctx.mesh)
-  render_eval = make_eval_fn(model, ray_model, cfg, theta_n, theta_f, config.eval.block_rays)
+                                theta_n=theta_n, theta_f=theta_f, mesh=ctx.mesh,
+                                slope=dataset.epi_slope)
+  render_eval = make_eval_fn(model, ray_model, cfg, theta_n, theta_f, config.eval.block_rays,
+                             dataset.epi_slope)
 
   def eval_fn(params, step):
     # the joint sampler renders with the window it trains with at this step
@@ -333,7 +340,7 @@ def renderer(config, name, dataset, states):
   model, ray_model = models_from_config(config, name)
   cfg, state = config[name], states[name]
   render_eval = make_eval_fn(model, ray_model, cfg, dataset.near, dataset.far,
-                             config.eval.block_rays)
+                             config.eval.block_rays, dataset.epi_slope)
   return functools.partial(render_eval, (state.params, joint_window(cfg, int(state.step))))
 
 
