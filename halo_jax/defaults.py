@@ -177,6 +177,9 @@ def light_field_stage(cfg):
       # 'nelf' (the authors' NeLFRayField: num_features per coordinate of
       # kind uv_kind, st_kind; its colour reads (u, v)'s features with color_uv)
       field="oblique", uv_kind="axis", st_kind="axis", color_uv=True,
+      # render the random rays over the whole range instead of the current
+      # window (blended samplers only; the authors' LLFF code)
+      random_full=False,
       std=1.0, uv_std=0.0, num_features=16, seed=0, model=_model(width=128, depth=4))
   cfg.joint.model.skips = ()
   return cfg

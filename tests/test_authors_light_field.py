@@ -184,3 +184,9 @@ def test_octave_features_are_their_base_embedder():
     ours = encoding.axis_fourier_features(jnp.asarray(x, jnp.float32),
                                           encoding.octave_frequencies(10, scale))
     np.testing.assert_allclose(np.asarray(ours), theirs, atol=3e-5)
+
+
+def test_a_blended_window_of_width_zero_is_the_whole_range():
+  lo, hi = samplers.blended_window(jnp.array([0.1, 0.9]), 1.2, 6.0, 0.0)
+  np.testing.assert_allclose(lo, [1.2, 1.2])
+  np.testing.assert_allclose(hi, [6.0, 6.0])

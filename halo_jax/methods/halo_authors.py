@@ -23,7 +23,7 @@ the depth encoded by octaves (their BaseEmbedder: scale 8 and 1), (u, v) by
 axis-aligned frequencies of std 8 rad per scene unit; the ray field's colour
 without (u, v); every sample evenly over a window that narrows to a tenth of
 the range; L_consist on the largest weight's depth, on as many random rays as
-training rays.
+training rays, which the radiance field renders over the whole depth range.
 """
 import math
 
@@ -78,7 +78,7 @@ def ndc(c):
                   target="max_weight", random_rays=hi.batch_rays, color_weight=1.0,
                   nerf_consist_weight=0.0, field="nelf", num_features=FEATURES,
                   uv_kind="axis", uv_std=LLFF_UV_STD, st_kind="octaves", std=LLFF_ST_SCALE,
-                  color_uv=False)
+                  color_uv=False, random_full=True)
   hi.joint.model.update(width=hi.model.width, depth=hi.model.depth, skips=tuple(hi.model.skips))
   hi.fourier.update(st_kind="octaves", st_std=LLFF_ST_SCALE, st_features=FEATURES,
                     theta_kind="octaves", theta_std=LLFF_DEPTH_SCALE, theta_features=FEATURES,

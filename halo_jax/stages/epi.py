@@ -46,6 +46,10 @@ def check(config, name, dspec):
                          f"({dspec.geometry.value} rays)")
   registry.check(cfg.joint.get("field", "oblique") in ("oblique", "nelf"),
                  f"{name}.joint.field={cfg.joint.get('field')!r}: use 'oblique' or 'nelf'")
+  registry.check(not cfg.joint.get("random_full", False)
+                 or cfg.sampler.kind in ("joint_blended", "joint_blended_even"),
+                 f"{name}.joint.random_full=True: the random rays' full range is a blended "
+                 "window of width 0; use sampler.kind 'joint_blended' or 'joint_blended_even'")
   n_full = full_range_samples(cfg)
   registry.check(n_full == 0 or cfg.sampler.num_samples - n_full - 1 >= 1,
                  f"{name}.joint.full_range={cfg.joint.full_range}: its {n_full} full-range "
@@ -263,7 +267,10 @@ def _random_ray_consist(params, box, key, step, part, *, model, ray_model, cfg, 
   uv, st, keys = (parallel.shard_batch(microbatch.part_of(x, part), mesh) for x in (uv, st, keys))
   frozen = dict(params, nerf=jax.lax.stop_gradient(params["nerf"]))
   rays = two_plane_rays(uv, st)
-  out = render_rays(model, ray_model, cfg, frozen, rays, keys, joint_window(cfg, step),
+  # random_full: the radiance field's answer over the whole range, not the
+  # ray field's window (their LLFF code); a blended window of width 0 is it
+  window = 0.0 if cfg.joint.get("random_full", False) else joint_window(cfg, step)
+  out = render_rays(model, ray_model, cfg, frozen, rays, keys, window,
                     theta_n=theta_n, theta_f=theta_f, randomized=True, slope=slope)
   consist = consist_loss(out, cfg.joint.target)
   if out["rgb_ray"] is None:
