@@ -38,6 +38,10 @@ def _train(steps, batch_rays, lr_init, lr_final):
       microbatches=1,
       lr_init=lr_init,
       lr_final=lr_final,
+      # > 0: the rate falls as a polynomial of this power from lr_init to
+      # lr_final over `steps` (mmcv's Poly, the authors' schedule); 0: NeRF's
+      # log-linear decay as lr_decay_steps below says
+      lr_power=0.0,
       # 0: the rate falls log-linearly from lr_init to lr_final over `steps`;
       # > 0: lr_init * (lr_final / lr_init) ** (step / lr_decay_steps), a
       # schedule that does not depend on the step cap (the original NeRF's)
@@ -100,6 +104,9 @@ def _radiance_stage(L, scale, use_viewdirs, steps, num_samples, sampler):
   # encoding.with_lo, which prepends Lo-NeRF's P.E. to this stage's (not for
   # the 'lo' stage itself).
   cfg.init_from_lo = False
+  # with init_from_lo and without with_lo: keep the fresh skip layer too (the
+  # authors' hf_load_lf drops both layers that read the encoding, fc0 and fc4)
+  cfg.init_skip_fresh = False
   cfg.encoding.with_lo = False
   return cfg
 
@@ -114,6 +121,7 @@ def _hi_extras(cfg):
       num_samples=64,       # uniform samples for both renderings of those rays
       bank_rays=65536,      # random rays rendered once by the frozen Lo-NeRF
       start_step=0,
+      density_noise=0.0,    # Hi's density noise on those rays (the authors' 1.0)
   ))
   # sampler.kind='joint': a low-frequency ray field trained with this stage
   # (L_consist) places the samples in tau_ray +- alpha, alpha falling linearly
@@ -258,7 +266,10 @@ def _ray_stage():
   r.encoding = ml_collections.ConfigDict(dict(L=10, scale=32.0))
   r.model = _model()
   r.radius = 0.0              # sphere of the ray parametrisation (0: camera radius)
-  r.depth_target = "max_weight"  # or 'expected' (Lo-NeRF's normalised expected depth)
+  # 'max_weight', 'max_weight_far' (the light left after the last sample
+  # weighs in at far: the authors' 2e10 last interval) or 'expected' (Lo-NeRF's
+  # normalised expected depth)
+  r.depth_target = "max_weight"
   r.random_fraction = 0.5     # share of each batch drawn from random hemisphere rays
   r.bank_rays = 262144        # random rays rendered once by the frozen Lo-NeRF
   r.lo_samples = 0            # samples for the Lo-NeRF targets (0: Lo's own count)

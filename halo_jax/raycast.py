@@ -236,14 +236,22 @@ def lo_targets(model, params, origins, dirs, *, num_samples, near, far, white_ba
   """Frozen-field depth and opacity on rays (at `times` [R, 1] for a dynamic
   field), for L_ray and L_empty. block_rays: see in_blocks.
 
-  Returns depth [R] (the max-weight sample, or the normalised expected depth)
-  and acc [R].
+  Returns depth [R] (target: 'max_weight', the largest weight's sample;
+  'max_weight_far', the same with the light left after the last sample as a
+  weight at `far` (the authors' 2e10 last interval); 'expected', the
+  normalised expected depth) and acc [R].
   """
   def targets(origins, dirs, times):
     t = jax.vmap(lambda o: samplers.stratified(None, near, far, num_samples,
                                                randomized=False))(origins)
     out = composite(model, params, origins, dirs, t, white_background, times=times)
-    depth = out["depth_max"] if target == "max_weight" else render.normalized_depth(
-        out["depth"], out["acc"])
+    if target == "expected":
+      depth = render.normalized_depth(out["depth"], out["acc"])
+    elif target == "max_weight_far":
+      # the authors' huge last interval: what light passes every sample
+      # counts as a weight at the far bound, so an empty ray's depth is far
+      depth = jnp.where(1.0 - out["acc"] > out["weights"].max(-1), far, out["depth_max"])
+    else:
+      depth = out["depth_max"]
     return depth, out["acc"]
   return in_blocks(targets, block_rays, origins, dirs, times)

@@ -134,9 +134,9 @@ def test_halo_authors_config_on_knights():
   assert hi.model.density_activation == "relu" and hi.density_noise == 1.0
 
 
-def test_halo_authors_refuses_other_scene_kinds():
-  with pytest.raises(ValueError, match="halo_authors.*does not run"):
-    configure.load("configs/procedural.py:spheres_8view_cpu", "halo_authors")
+def test_halo_authors_refuses_dynamic_scenes():
+  with pytest.raises(ValueError, match="halo_authors.*does not run.*static scenes only"):
+    configure.load("configs/dnerf.py:lego_cpu", "halo_authors")
 
 
 def test_depth_points_align_a_scene_point_seen_from_two_cameras():
@@ -190,3 +190,46 @@ def test_a_blended_window_of_width_zero_is_the_whole_range():
   lo, hi = samplers.blended_window(jnp.array([0.1, 0.9]), 1.2, 6.0, 0.0)
   np.testing.assert_allclose(lo, [1.2, 1.2])
   np.testing.assert_allclose(hi, [6.0, 6.0])
+
+
+def test_halo_authors_on_blender_is_their_static_recipe():
+  c = configure.load("configs/blender.py:lego_8view", "halo_authors")
+  hi = c.hi
+  assert c.stages == "lo,ray,hi" and c.ray.depth_target == "max_weight_far"
+  assert hi.sampler.near_only and not hi.model.use_viewdirs and hi.precrop_steps == 1000
+  assert (hi.empty.density_noise, hi.empty.num_samples, hi.empty.start_step) == (1.0, 128, 5000)
+  # lego: Hi from Lo but for the encoding's layers, 5e-3 falling with power 1 to 5e-5
+  assert hi.init_from_lo and hi.init_skip_fresh and not hi.encoding.with_lo
+  assert (hi.lr_init, hi.lr_power) == (pytest.approx(5e-3), 1.0)
+  assert hi.lr_final == pytest.approx(5e-5)
+  drums = configure.load("configs/blender.py:drums_8view", "halo_authors").hi
+  assert (drums.lr_init, drums.lr_final, drums.lr_power) == (5e-4, pytest.approx(5e-6), 2.0)
+  assert drums.empty.start_step == 2000 and not drums.init_from_lo
+  one = configure.load("configs/blender.py:lego_oneside", "halo_authors")
+  assert (one.lo.steps, one.ray.steps, one.hi.steps) == (4200, 42000, 28000)
+  assert one.hi.precrop_steps == 1000 and one.hi.empty.weight == 0.01
+
+
+def test_poly_schedule_is_mmcvs():
+  import ml_collections
+  from halo_jax.stages import step
+  cfg = ml_collections.ConfigDict(dict(lr_init=5e-4, lr_final=5e-6, lr_power=2.0, steps=1000,
+                                       lr_decay_steps=0))
+  fn = step.schedule(cfg)
+  for it in (0, 250, 999, 1000):
+    # mmcv Poly: (base - min) (1 - it / max)^power + min
+    assert float(fn(it)) == pytest.approx((5e-4 - 5e-6) * (1 - it / 1000) ** 2 + 5e-6, rel=1e-5)
+
+
+def test_max_weight_far_puts_an_empty_rays_depth_at_far():
+  from halo_jax import raycast
+  class Empty:   # a field with (nearly) no density: the light passes every sample
+    def apply(self, variables, points, view, *a, **k):
+      return jnp.full(points.shape[:-1], 1e-4), jnp.zeros(points.shape[:-1] + (3,))
+  o = jnp.zeros((2, 3)); d = jnp.array([[0.0, 0.0, 1.0]] * 2)
+  depth, acc = raycast.lo_targets(Empty(), {}, o, d, num_samples=8, near=2.0, far=6.0,
+                                  white_background=False, target="max_weight_far")
+  np.testing.assert_allclose(depth, [6.0, 6.0])
+  near_depth, _ = raycast.lo_targets(Empty(), {}, o, d, num_samples=8, near=2.0, far=6.0,
+                                     white_background=False, target="max_weight")
+  assert float(near_depth[0]) < 3.0

@@ -134,11 +134,8 @@ def test_methods_configure_the_stages_they_describe():
   assert free.hi.freq_reg.end == 0.9 and free.hi.occlusion.weight == 0.01
   both = configure.load("configs/blender.py:lego_8view_cpu", "halo+freenerf")
   assert pipeline.needed(both) == ("lo", "ray", "hi") and both.hi.freq_reg.end == 0.9
-  two_plane_only = {"halo_authors"}   # built for light fields only so far
   for name in methods.METHODS.names():
-    scene = ("configs/stanford_lf.py:knights_cpu" if name in two_plane_only
-             else "configs/blender.py:lego_8view_cpu")
-    validate.validate(configure.load(scene, name))
+    validate.validate(configure.load("configs/blender.py:lego_8view_cpu", name))
   neutral = tiny_config(method="")
   assert neutral.method == ""
   with pytest.raises(ConfigError, match="method='dietnerf' is not a known method"):

@@ -157,7 +157,9 @@ def _initial_params(ctx: base.StageContext):
       raise registry.ConfigError(
           f"{name}.encoding.with_lo: this run's lo.encoding {config.lo.encoding.to_dict()} "
           f"differs from the finished Lo stage's {lo.config.lo.encoding.to_dict()}")
-    params["nerf"] = transfer_from_lo(params["nerf"], lo.params["nerf"], cfg.encoding.with_lo)
+    params["nerf"] = transfer_from_lo(params["nerf"], lo.params["nerf"], cfg.encoding.with_lo,
+                                      fresh_skips=(tuple(cfg.model.skips)
+                                                   if cfg.get("init_skip_fresh", False) else ()))
   return params
 
 

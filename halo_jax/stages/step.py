@@ -14,8 +14,13 @@ import optax
 
 
 def schedule(cfg):
-  """NeRF's log-linear learning rate, step -> lr: from lr_init to lr_final over
-  `steps`, or by lr_final / lr_init every `lr_decay_steps` where that is set."""
+  """The learning rate, step -> lr: with lr_power > 0 a polynomial of that
+  power from lr_init to lr_final over `steps` (mmcv's Poly); else NeRF's
+  log-linear decay from lr_init to lr_final over `steps`, or by lr_final /
+  lr_init every `lr_decay_steps` where that is set."""
+  if cfg.get("lr_power", 0.0) > 0:
+    return optax.polynomial_schedule(cfg.lr_init, cfg.lr_final, cfg.lr_power,
+                                     max(cfg.steps, 1))
   span = cfg.lr_decay_steps or max(cfg.steps, 1)
   return optax.exponential_decay(cfg.lr_init, transition_steps=span,
                                  decay_rate=cfg.lr_final / cfg.lr_init)

@@ -144,8 +144,10 @@ def _empty_value(x: Inputs, cfg):
   j = parallel.shard_batch(microbatch.part_of(j, x.part), x.mesh)
   rays = bank.rays.take(j)
   t = jax.vmap(lambda k: samplers.stratified(k, x.near, x.far, e.num_samples))(keys)
+  noise = e.get("density_noise", 0.0)
+  k_noise = jax.vmap(lambda k: jax.random.fold_in(k, 1))(keys) if noise > 0 else None
   acc = raycast.composite(x.model, x.params["nerf"], rays.origins, rays.dirs, t, x.white,
-                          times=rays.times)["acc"]
+                          k_noise, noise, times=rays.times)["acc"]
   value = losses.empty_space(acc, bank.acc[j], e.tau)
   return value, {"empty": value}
 

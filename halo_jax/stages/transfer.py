@@ -3,7 +3,7 @@ import jax
 import jax.numpy as jnp
 
 
-def transfer_from_lo(hi_params, lo_params, lo_inputs_first: bool = False):
+def transfer_from_lo(hi_params, lo_params, lo_inputs_first: bool = False, fresh_skips=()):
   """Hi-NeRF parameters initialised from Lo-NeRF's.
 
   Layers of equal shape are copied; the rest (the view-direction branch, and
@@ -11,8 +11,12 @@ def transfer_from_lo(hi_params, lo_params, lo_inputs_first: bool = False):
   initialisation. With `lo_inputs_first` (Hi-NeRF's encoding starts with Lo's
   P.E., `hi.encoding.with_lo`), a kernel whose inputs extend Lo's (the input
   and skip layers) gets Lo's rows first and zeros for the extra Hi features,
-  so the Hi-NeRF starts as the same function as the Lo-NeRF.
+  so the Hi-NeRF starts as the same function as the Lo-NeRF. The trunk
+  layers `dense_<i>` for i in `fresh_skips` (the skip layers, which also read
+  the encoding) keep their fresh initialisation too: the authors' option
+  drops both their fc0 and fc4.
   """
+  fresh = {"dense_0"} | {f"dense_{i}" for i in fresh_skips}
   flat_lo = dict(jax.tree_util.tree_leaves_with_path(lo_params))
 
   def pick(path, x):
@@ -21,7 +25,7 @@ def transfer_from_lo(hi_params, lo_params, lo_inputs_first: bool = False):
       return x
     # Without lo_inputs_first the input layer reads other features than Lo's,
     # even where the widths happen to agree.
-    if not lo_inputs_first and any(getattr(k, "key", None) == "dense_0" for k in path):
+    if not lo_inputs_first and any(getattr(k, "key", None) in fresh for k in path):
       return x
     if src.shape == x.shape:
       return src
