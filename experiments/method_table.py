@@ -28,7 +28,7 @@ KINDS = (
     ("two_plane (Stanford knights)", "configs/stanford_lf.py:knights_cpu"),
 )
 ORDER = ("nerf_paper", "nerf_tuned", "freenerf", "halo", "halo+freenerf", "halo+unseen",
-         "halo_auto", "halo_joint")
+         "halo_auto", "halo_joint", "halo_authors")
 # Inputs and bookkeeping, not settings of the method itself: the data and its
 # protocol, the budget's split (a single stage takes it all), and
 # baseline.num_samples (read into hi.sampler.num_samples).
