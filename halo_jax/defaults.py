@@ -104,6 +104,9 @@ def _radiance_stage(L, scale, use_viewdirs, steps, num_samples, sampler):
   # encoding.with_lo, which prepends Lo-NeRF's P.E. to this stage's (not for
   # the 'lo' stage itself).
   cfg.init_from_lo = False
+  # keep the parameters that score best on data.select_views at the held-out
+  # evaluations (eval_every / eval_every_s), not the last (stages/selection.py)
+  cfg.select_best = False
   # with init_from_lo and without with_lo: keep the fresh skip layer too (the
   # authors' hf_load_lf drops both layers that read the encoding, fc0 and fc4)
   cfg.init_skip_fresh = False
@@ -211,6 +214,11 @@ def _data():
       train_views="all",       # 'all', 'every:K', a list of names, or 'r_2,r_16,...'
       test_views="all",
       test_split="test",
+      # model selection (a stage's select_best): views of `select_split`
+      # that are neither training nor test views ('' : none), e.g. the
+      # authors' 13 Blender val views, 'every:8' of 'val'
+      select_views="",
+      select_split="val",
       near=2.0,
       far=6.0,
       white_background=True,

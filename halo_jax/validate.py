@@ -43,6 +43,18 @@ def _check_training(cfg, name):
             f"{name}.{field}={cfg[field]!r}: must be an integer >= 0")
 
 
+def _check_selection(config, name):
+  cfg = config[name]
+  if not cfg.get("select_best", False):
+    return
+  check(bool(config.data.get("select_views")),
+        f"{name}.select_best=True needs data.select_views: the views that choose the "
+        "parameters (never the test views)")
+  check(bool(cfg.eval_every or cfg.eval_every_s),
+        f"{name}.select_best=True scores the parameters at the held-out evaluations: set "
+        f"{name}.eval_every or {name}.eval_every_s")
+
+
 def _check_sampler(cfg, name):
   if "sampler" not in cfg:
     return
@@ -119,6 +131,7 @@ def validate(config) -> None:
           f"{name}.kind={config[name].kind!r} trains on {geometry.names(trainer.geometries)} "
           f"rays; data.kind={config.data.kind!r} has {dspec.geometry.value} rays")
     _check_training(config[name], name)
+    _check_selection(config, name)
     trainer.check(config, name, dspec)
   _check_budget(config, order.needed(config, final))
   _check_front(config)

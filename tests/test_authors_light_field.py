@@ -233,3 +233,36 @@ def test_max_weight_far_puts_an_empty_rays_depth_at_far():
   near_depth, _ = raycast.lo_targets(Empty(), {}, o, d, num_samples=8, near=2.0, far=6.0,
                                      white_background=False, target="max_weight")
   assert float(near_depth[0]) < 3.0
+
+
+@pytest.mark.slow
+def test_select_best_keeps_the_parameters_that_scored_best(tmp_path):
+  # the built-in scene, Hi alone; selection on its val cameras every 5 steps
+  from halo_jax import pipeline
+  c = configure.load("configs/procedural.py:spheres_8view_cpu", "nerf_tuned", {
+      "data.procedural_size": 32, "data.test_views": "r_0,r_100", "data.select_views": "every:25",
+      "hi.steps": 12, "hi.eval_every": 5, "hi.select_best": True, "hi.model.width": 32,
+      "hi.batch_rays": 128, "hi.sampler.num_samples": 8, "baseline.num_samples": 8,
+      "budget_s": 0.0, "eval.curve_views": 1})
+  pipeline.run(c, str(tmp_path))
+  import json
+  with open(tmp_path / "metrics.jsonl") as f:
+    scored = [json.loads(l) for l in f if "select_psnr" in l]
+  assert [r["step"] for r in scored] == [5, 10, 12]
+  best = max(scored, key=lambda r: r["select_psnr"])
+  with open(tmp_path / "hi" / "best" / "record.json") as f:
+    assert json.load(f) == {"step": best["step"], "psnr": pytest.approx(best["select_psnr"])}
+
+
+def test_select_best_needs_selection_views_and_never_a_test_view(tmp_path):
+  from halo_jax import datasets, validate
+  from halo_jax.registry import ConfigError
+  c = configure.load("configs/procedural.py:spheres_8view_cpu", "nerf_tuned",
+                     {"hi.select_best": True})
+  with pytest.raises(ConfigError, match="hi.select_best=True needs data.select_views"):
+    validate.validate(c)
+  c = configure.load("configs/procedural.py:spheres_8view_cpu", "nerf_tuned", {
+      "data.procedural_size": 16, "data.test_views": "r_0", "data.select_views": "r_0",
+      "data.select_split": "test"})
+  with pytest.raises(datasets.DataError, match="holds test views"):
+    datasets.load(c.data, str(tmp_path))

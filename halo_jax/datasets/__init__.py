@@ -6,6 +6,8 @@ import dataclasses
 import os
 from typing import Callable
 
+import ml_collections
+
 from halo_jax import registry
 from halo_jax.datasets import blender, capture, dnerf, llff, llff_planes, procedural, stanford_lf
 from halo_jax.datasets.base import (ORBIT, ORBIT_TIME, SPIRAL, UV_PLANE, DataError, Dataset,
@@ -132,7 +134,20 @@ def spec_of(data_cfg) -> DatasetSpec:
 def load(cfg, workdir: str = "") -> Dataset:
   """Loads the scene `cfg.kind` (a LOADERS entry) as the data config describes."""
   spec = spec_of(cfg)
-  return dataclasses.replace(spec.load(cfg, workdir), facts=spec.facts)
+  ds = dataclasses.replace(spec.load(cfg, workdir), facts=spec.facts)
+  if not cfg.get("select_views"):
+    return ds
+  # the selection views load as another split's test views of the same scene
+  other = ml_collections.ConfigDict(cfg.to_dict())
+  other.update(test_split=cfg.select_split, test_views=cfg.select_views)
+  select = spec.load(other, workdir).test
+  # never choose on a test view: the same image in both sets is refused
+  test = {v.tobytes() for v in ds.test.images}
+  shared = [n for n, v in zip(select.names, select.images) if v.tobytes() in test]
+  if shared:
+    raise DataError(f"data.select_views={cfg.select_views!r} (split {cfg.select_split!r}) "
+                    f"holds test views {shared}: model selection never sees a test view")
+  return dataclasses.replace(ds, select=select)
 
 
 __all__ = ["DataError", "Dataset", "DatasetSpec", "LOADERS", "SceneFacts", "Views", "load", "spread_views",

@@ -95,6 +95,7 @@ class Dataset:
     facts: its kind's SceneFacts (datasets.load sets its registry entry's).
     epi_slope: TWO_PLANE: how near / far read (lightfield.SLOPES): EPI angles
       ('angle'), or distances from the (u, v) plane ('depth').
+    select: the views model selection scores on (data.select_views), or None.
   """
   train: Views
   test: Views
@@ -106,6 +107,7 @@ class Dataset:
   depth_bounds: Optional[np.ndarray] = None
   facts: SceneFacts = ORBIT
   epi_slope: str = "angle"
+  select: Optional[Views] = None
 
   @property
   def dynamic(self) -> bool:

@@ -8,7 +8,7 @@ train. The pipeline (halo_jax/pipeline.py) only ever talks to this interface.
 import dataclasses
 from typing import Any, Callable, Dict, Optional
 
-from halo_jax import geometry, registry
+from halo_jax import evaluate, geometry, registry
 
 
 @dataclasses.dataclass(frozen=True)
@@ -68,3 +68,18 @@ def renderer_of(config, name: str, dataset, states) -> Callable:
   """The finished stage's renderer (Trainer.renderer); its models carry
   config.sin_cos, the way their sin and cos are evaluated."""
   return trainer_of(config, name).renderer(config, name, dataset, states)
+
+
+def select_fn(ctx: StageContext, make_render: Callable) -> Optional[Callable]:
+  """The loop's model-selection score of a stage with `select_best`:
+  (params, step) -> mean PSNR over all of dataset.select, the render fn made
+  by make_render(params, step); None where the stage does not select."""
+  if not ctx.cfg.get("select_best", False):
+    return None
+  views = ctx.dataset.select
+  if views is None:
+    raise registry.ConfigError(f"{ctx.name}.select_best needs data.select_views: the views "
+                               "that choose the parameters (never the test views)")
+  chunk = ctx.config.eval.chunk
+  return lambda params, step: evaluate.heldout(make_render(params, step), views, chunk,
+                                               len(views.names))["psnr"]

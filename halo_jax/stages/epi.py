@@ -328,8 +328,12 @@ def train(ctx: base.StageContext):
                                   init_params(model, ray_model, config.seed), step_loss,
                                   data, config.seed, eval_fn, ctx.log, ctx.wall_offset, ctx.mesh,
                                   snapshot_s=ctx.front_s, pacer=ctx.pacer,
-                                  constant_psnr=collapse.constant_psnr(dataset.train.images))
-  final = functools.partial(render_eval, (params, joint_window(cfg, step)))
+                                  constant_psnr=collapse.constant_psnr(dataset.train.images),
+                                  select_fn=base.select_fn(
+                                      ctx, lambda p, s: functools.partial(
+                                          render_eval, (p, joint_window(cfg, s)))))
+  at = info.get("selected", {}).get("step", step)
+  final = functools.partial(render_eval, (params, joint_window(cfg, at)))
   info["eval"] = evaluate.evaluate(final, dataset.test, config.eval.chunk,
                                    os.path.join(stage_dir(ctx.workdir, name), "eval"), 0.0, 1.0,
                                    config.eval.save_images, config.eval.lpips)

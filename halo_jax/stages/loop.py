@@ -10,7 +10,7 @@ from typing import Callable, Optional
 import jax
 
 from halo_jax import checkpoint, parallel, tensorboard
-from halo_jax.stages import collapse, pacing, preemption, progress, snapshots
+from halo_jax.stages import collapse, pacing, preemption, progress, selection, snapshots
 from halo_jax.stages.metrics_log import MetricsLog
 from halo_jax.stages.step import NONFINITE_WHAT, initial_state, make_step, optimizer, schedule
 
@@ -46,8 +46,9 @@ class _Run:
   """One stage's loop state: the train state, its clock and its records."""
 
   def __init__(self, name, cfg, train_state, wall_s, mngr, log, eval_fn, wall_offset,
-               board=None, snaps=None, pacer=None):
+               board=None, snaps=None, pacer=None, select=None):
     self.name, self.cfg, self.state, self.wall_s = name, cfg, train_state, wall_s
+    self.select = select  # (selection.Best, select_fn) or None
     self.snaps = snaps  # snapshots.Snapshots or None
     self.pacer = pacer  # pacing.Pacer or None
     self.mngr, self.log, self.eval_fn, self.wall_offset = mngr, log, eval_fn, wall_offset
@@ -70,6 +71,10 @@ class _Run:
     metrics = {k: float(v) for k, v in metrics.items()}
     record = dict(stage=self.name, step=step, wall_s=self.wall_offset + self.wall_s,
                   heldout=True, **metrics)
+    if self.select is not None:  # model selection on the validation views
+      best, select_fn = self.select
+      record["select_psnr"] = float(select_fn(params, step))
+      best.offer(step, record["select_psnr"], params)
     self.log.write(**record)
     if parallel.is_primary():
       tensorboard.write_record(self.board, record, images)
@@ -176,7 +181,7 @@ class _Run:
 def train(name: str, cfg, workdir: str, params, loss_fn: Callable, data, seed: int,
           eval_fn: Optional[Callable] = None, log: Optional[MetricsLog] = None,
           wall_offset: float = 0.0, mesh=None, snapshot_s=(), pacer=None,
-          constant_psnr: Optional[float] = None):
+          constant_psnr: Optional[float] = None, select_fn: Optional[Callable] = None):
   """Trains `params` on `loss_fn` for cfg.steps (or cfg.max_seconds, but never
   fewer than cfg.min_steps) and returns them.
 
@@ -185,13 +190,11 @@ def train(name: str, cfg, workdir: str, params, loss_fn: Callable, data, seed: i
     cfg: the stage config (steps, lr_*, max_seconds, *_every).
     workdir: run folder; checkpoints go to <workdir>/<name>/checkpoints.
     params: initial parameters (ignored if a checkpoint exists: training resumes).
-    loss_fn: (params, data, key, step, part=None) -> (loss, aux dict of scalars);
-      with cfg.microbatches > 1 it is called on part=(i, microbatches) of its
-      batch (part_of).
+    loss_fn: (params, data, key, step, part=None) -> (loss, aux dict of scalars),
+      called on part=(i, microbatches) of its batch when cfg.microbatches > 1.
     data: pytree of device arrays the loss reads (rays, targets, ...).
     seed: base PRNG seed.
-    eval_fn: (params, step) -> dict of held-out metrics (e.g. {'psnr': ...});
-      its time is not counted as training time.
+    eval_fn: (params, step) -> dict of held-out metrics (e.g. {'psnr': ...}).
     log: metrics.jsonl writer.
     wall_offset: training seconds spent by earlier stages of the same method,
       added to wall_s in the log so curves of a whole pipeline line up.
@@ -200,13 +203,14 @@ def train(name: str, cfg, workdir: str, params, loss_fn: Callable, data, seed: i
     snapshot_s: the method's training seconds (wall_offset included) at which
       to save the parameters for its error-against-time front (snapshots.py).
     pacer: a pacing.Pacer whose driver grants every step (or None: free).
-    constant_psnr: collapse.constant_psnr of the training pixels, for the
-      verdict on whether the stage learned anything (None: no images).
+    constant_psnr: collapse.constant_psnr of the training pixels (None: no images).
+    select_fn: (params, step) -> PSNR on validation views at every held-out
+      evaluation; the best-scoring parameters are returned (selection.py).
 
   Returns:
-    (params, step, info), info = {'wall_s', 'skipped', 'compile_s',
-    'past_time_cap', 'learned' (collapse.verdict)}: training seconds exclude
-    the step's compilation (compile_s) and held-out evaluations.
+    (params, step, info), info = {'wall_s', 'skipped', 'compile_s', 'past_time_cap',
+    'learned' (collapse.verdict)[, 'selected': {'step', 'psnr'}]}; wall_s excludes
+    compilation (compile_s), held-out evaluations and selection scores.
   """
   log = log or MetricsLog(workdir)
   tx = optimizer(cfg)
@@ -215,7 +219,8 @@ def train(name: str, cfg, workdir: str, params, loss_fn: Callable, data, seed: i
   board = tensorboard.open_writer(workdir, name, start) if parallel.is_primary() else None
   snaps = (snapshots.Snapshots(workdir, name, snapshot_s, start, wall_offset + wall_s)
            if snapshot_s else None)
-  run = _Run(name, cfg, train_state, wall_s, mngr, log, eval_fn, wall_offset, board, snaps, pacer)
+  run = _Run(name, cfg, train_state, wall_s, mngr, log, eval_fn, wall_offset, board, snaps, pacer,
+             select_fn and (selection.Best(workdir, name), select_fn))
   data = parallel.replicate(data, mesh)
   base_key = jax.random.PRNGKey(seed)
   # Compiled before the clock starts: a time budget buys training steps, and
@@ -232,7 +237,18 @@ def train(name: str, cfg, workdir: str, params, loss_fn: Callable, data, seed: i
     if board is not None:
       board.close()
   info = _info(run, start, step, compile_s, constant_psnr)
-  return parallel.to_local(run.state["params"]), step, info
+  return _chosen(run, info), step, info
+
+
+def _chosen(run, info):
+  """The stage's result: its last parameters, or the best on the selection
+  views (info['selected'] then says which step's)."""
+  final = parallel.to_local(run.state["params"])
+  best = run.select[0] if run.select else None
+  if best is None or best.record is None:
+    return final
+  info["selected"] = dict(best.record)
+  return best.params(final)
 
 
 def _info(run, start, step, compile_s, constant_psnr) -> dict:

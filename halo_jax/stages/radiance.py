@@ -251,10 +251,11 @@ def train(ctx: base.StageContext):
   params, step, info = loop.train(name, cfg, ctx.workdir, params, step_loss, data, config.seed,
                                   eval_fn, ctx.log, ctx.wall_offset + bank_s, ctx.mesh,
                                   snapshot_s=ctx.front_s, pacer=ctx.pacer,
-                                  constant_psnr=collapse.constant_psnr(ds.train.images))
+                                  constant_psnr=collapse.constant_psnr(ds.train.images),
+                                  select_fn=base.select_fn(ctx, make_eval))
   info["wall_s"] += bank_s
   eval_dir = os.path.join(stage_dir(ctx.workdir, name), "eval")
-  final = make_eval(params, step)
+  final = make_eval(params, info.get("selected", {}).get("step", step))
   info["eval"] = evaluate.evaluate(final, ds.test, config.eval.chunk, eval_dir, ds.near, ds.far,
                                    config.eval.save_images, config.eval.lpips)
   if ds.dynamic:
