@@ -15,6 +15,7 @@ import numpy as np
 from halo_jax import camera, render, rng, samplers
 from halo_jax.geometry import Geometry
 from halo_jax.rays import Rays
+from halo_jax.types import Params
 
 
 class Guide(NamedTuple):
@@ -23,8 +24,8 @@ class Guide(NamedTuple):
   geometry: how rays enter the field: SPHERE where they cross the sphere of
   `radius`; NDC as they are (they start on the near plane).
   """
-  model: Any
-  params: Any
+  model: Any              # the Flax ray field
+  params: Params
   geometry: Geometry
   radius: float = 0.0
 

@@ -9,6 +9,7 @@ from typing import Any, Callable, Dict, Optional
 
 from halo_jax import checkpoint, datasets
 from halo_jax.stages import base, order, state
+from halo_jax.types import Config
 
 
 class NothingToRestore(ValueError):
@@ -18,10 +19,10 @@ class NothingToRestore(ValueError):
 @dataclasses.dataclass(frozen=True)
 class Restored:
   workdir: str
-  config: Any                 # the stage's config, as it was trained
+  config: Config              # the stage's config, as it was trained
   stage: str
-  dataset: Any
-  states: Dict[str, Any]      # the stage and every stage it reads, by name
+  dataset: datasets.Dataset
+  states: Dict[str, state.StageState]      # the stage and every stage it reads, by name
   render: Callable            # fn(o, d[, t]) -> {'rgb', 'depth', 'acc', ...}
 
 

@@ -14,7 +14,7 @@ PACKAGE = pathlib.Path(__file__).resolve().parent.parent / "halo_jax"
 # Bottom to top: numerics, models and data, training, entry points. A module
 # may import modules of its own layer or below.
 LAYERS = (
-    {"registry", "geometry", "rays", "trig", "encoding", "camera", "rng", "samplers", "render", "raycast",
+    {"registry", "types", "geometry", "rays", "trig", "encoding", "camera", "rng", "samplers", "render", "raycast",
      "losses", "metrics", "lightfield", "frequency", "plots", "provenance", "visibility",
      "tensorboard", "video", "image_files", "config_files", "tables"},
     {"models", "ray_fields", "datasets", "checkpoint", "parallel", "evaluate", "defaults",
@@ -145,3 +145,36 @@ def test_modules_and_functions_stay_small():
 def test_registries_hold_every_entry(registry, expected):
   import halo_jax.pipeline  # noqa: F401  (registers the stage trainers)
   assert set(registry.names()) == expected
+
+
+def _accepts(fn, protocol) -> bool:
+  """Whether `fn` takes the arguments the Protocol's __call__ names."""
+  import inspect
+  names = list(inspect.signature(protocol.__call__).parameters)[1:]  # less self
+  try:
+    inspect.signature(fn).bind(*names)
+  except TypeError:
+    return False
+  return True
+
+
+def test_registry_entries_keep_their_typed_interfaces():
+  import halo_jax.pipeline  # noqa: F401  (registers the stage trainers)
+  from halo_jax.methods.base import ApplyFn
+  bad = []
+  fields = {"requires": base.RequiresFn, "params_like": base.ParamsLikeFn,
+            "train": base.TrainFn, "check": base.CheckFn, "renderer": base.RendererFn,
+            "guide": base.GuideFn}
+  for name, t in base.TRAINERS.items():
+    bad += [f"trainer {name}.{f}" for f, p in fields.items()
+            if getattr(t, f) is not None and not _accepts(getattr(t, f), p)]
+  fields = {"active": terms.ActiveFn, "weight": terms.WeightFn, "value": terms.ValueFn,
+            "needs": terms.NeedsFn, "prepare": terms.PrepareFn}
+  for name, t in terms.TERMS.items():
+    bad += [f"term {name}.{f}" for f, p in fields.items()
+            if getattr(t, f) is not None and not _accepts(getattr(t, f), p)]
+  bad += [f"method {n}.apply" for n, m in METHODS.items() if not _accepts(m.apply, ApplyFn)]
+  assert not bad, "entries whose callables do not take their interface's arguments: " + str(bad)
+  # the check itself can fail
+  assert not _accepts(lambda a, b, c: None, terms.ActiveFn)
+  assert not _accepts(lambda ctx, extra: None, base.TrainFn)

@@ -1,8 +1,14 @@
 """The Method record, apart from the registry so method modules can import it."""
 import dataclasses
-from typing import Callable
+from typing import Protocol
 
 from halo_jax import geometry
+from halo_jax.types import Config
+
+
+class ApplyFn(Protocol):
+  """Edits a scene's config into the method's (in place) and returns it."""
+  def __call__(self, config: Config) -> Config: ...
 
 
 @dataclasses.dataclass(frozen=True)
@@ -11,6 +17,6 @@ class Method:
   (edits and returns its argument); geometries: the ray geometries of the
   scenes it runs on; dynamic: whether it runs on time-dependent scenes."""
   summary: str
-  apply: Callable
+  apply: ApplyFn
   geometries: frozenset = geometry.ALL
   dynamic: bool = True

@@ -6,9 +6,15 @@ parameters shaped like its output (to restore a finished stage), and how to
 train. The pipeline (halo_jax/pipeline.py) only ever talks to this interface.
 """
 import dataclasses
-from typing import Any, Callable, Dict, Optional
+from typing import TYPE_CHECKING, Any, Callable, Dict, Optional, Protocol, Tuple
 
 from halo_jax import evaluate, geometry, registry
+from halo_jax.types import Array, Config, Params
+
+if TYPE_CHECKING:  # annotations only
+  from halo_jax import datasets
+  from halo_jax.stages.metrics_log import MetricsLog
+  from halo_jax.stages.state import StageState
 
 
 @dataclasses.dataclass(frozen=True)
@@ -17,15 +23,15 @@ class StageContext:
   the workdir, finished stages' states by name, the metrics log, training
   seconds spent by earlier stages, the data-parallel mesh (or None), and the
   pacing.Pacer of a run driven step by step from outside (or None)."""
-  config: Any
+  config: Config
   name: str
-  dataset: Any
+  dataset: "datasets.Dataset"
   workdir: str
-  states: Dict[str, Any]
-  log: Any = None
+  states: Dict[str, "StageState"]
+  log: Optional["MetricsLog"] = None
   wall_offset: float = 0.0
-  mesh: Optional[Any] = None
-  pacer: Optional[Any] = None
+  mesh: Optional[Any] = None      # a jax.sharding.Mesh
+  pacer: Optional[Any] = None     # a stages.pacing.Pacer
 
   @property
   def cfg(self):
@@ -38,6 +44,35 @@ class StageContext:
     return tuple(t for t in self.config.eval.front_s if t > self.wall_offset)
 
 
+RenderFn = Callable[..., Dict[str, Array]]   # (origins, dirs[, times]) -> {'rgb', 'depth', ...}
+
+
+class RequiresFn(Protocol):
+  def __call__(self, config: Config, name: str) -> Tuple[str, ...]: ...
+
+
+class ParamsLikeFn(Protocol):
+  def __call__(self, config: Config, name: str, dataset: Any = None) -> Params: ...
+
+
+class TrainFn(Protocol):
+  def __call__(self, ctx: StageContext) -> Tuple[Any, Dict[str, Any]]: ...  # (StageState, info)
+
+
+class CheckFn(Protocol):
+  def __call__(self, config: Config, name: str, dspec: Any) -> None: ...
+
+
+class RendererFn(Protocol):
+  def __call__(self, config: Config, name: str, dataset: Any,
+               states: Dict[str, Any]) -> RenderFn: ...
+
+
+class GuideFn(Protocol):
+  def __call__(self, config: Config, name: str, dataset: Any,
+               states: Dict[str, Any]) -> Optional[Tuple[Any, Config]]: ...
+
+
 @dataclasses.dataclass(frozen=True)
 class Trainer:
   """requires(config, name) -> stage names it reads; params_like(config, name,
@@ -48,13 +83,13 @@ class Trainer:
   the finished stage states[name] (None for stages that make no images);
   guide(config, name, dataset, states) -> (raycast.Guide, sampler config) of
   the ray field that places the stage's samples, or None (None: never)."""
-  requires: Callable
-  params_like: Callable
-  train: Callable
-  check: Callable
+  requires: RequiresFn
+  params_like: ParamsLikeFn
+  train: TrainFn
+  check: CheckFn
   geometries: frozenset = geometry.ALL
-  renderer: Optional[Callable] = None
-  guide: Optional[Callable] = None
+  renderer: Optional[RendererFn] = None
+  guide: Optional[GuideFn] = None
 
 
 TRAINERS = registry.Registry[Trainer]("stage trainer")

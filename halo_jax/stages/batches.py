@@ -5,13 +5,14 @@ all views, or (`one_image`) over the pixels of one random view per step, as
 the original NeRF does; for the first `precrop_steps` steps only from the
 centre crop.
 """
-from typing import Any, NamedTuple, Optional
+from typing import NamedTuple, Optional
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 
 from halo_jax.rays import Pixels, Rays
+from halo_jax.types import Params
 
 
 class StageData(NamedTuple):
@@ -20,7 +21,7 @@ class StageData(NamedTuple):
   name (terms.Term.prepare), and a frozen guide's parameters (or None)."""
   pixels: Pixels
   terms: dict
-  guide: Any = None
+  guide: Optional[Params] = None
 
 
 # A pixel is foreground when a channel differs from the background by more.

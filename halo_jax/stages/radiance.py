@@ -20,6 +20,7 @@ from halo_jax.rays import Batch
 from halo_jax.stages import base, batches, collapse, loop, microbatch, terms
 from halo_jax.stages.state import StageState, stage_dir
 from halo_jax.stages.transfer import transfer_from_lo
+from halo_jax.types import Config
 
 SEED_COARSE = 7  # offset of the coarse MLP's init seed from config.seed
 
@@ -169,17 +170,17 @@ class StepSettings:
   stage (`loss_settings`): the stage config, the field, the sampler's spec,
   the guide's model and sphere (guided samplers), the ray bounds, the active
   loss terms and the data-parallel mesh."""
-  cfg: Any
-  model: Any
+  cfg: Config
+  model: Any              # the stage's Flax field
   sampler: samplers.SamplerSpec
-  guide_model: Any
+  guide_model: Any        # the guide's Flax ray field, or None
   geometry: geometry.Geometry
   radius: float
   near: float
   far: float
   white: bool
   terms: tuple
-  mesh: Any
+  mesh: Any               # a jax.sharding.Mesh or None
 
 
 def loss_settings(cfg, model, *, near, far, white, geometry_=geometry.Geometry.SPHERE,

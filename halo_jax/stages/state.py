@@ -1,6 +1,5 @@
 """A finished stage's output: an immutable pytree handed to the next stage."""
 import os
-from typing import Any
 
 import flax
 import jax
@@ -8,6 +7,7 @@ import ml_collections
 import numpy as np
 
 from halo_jax import checkpoint, parallel
+from halo_jax.types import Params
 
 
 class StageMissing(FileNotFoundError):
@@ -24,7 +24,7 @@ class StageState:
     config: the full run config (static, not a pytree leaf).
     name: 'lo', 'ray' or 'hi'.
   """
-  params: Any
+  params: Params
   step: int
   config: ml_collections.ConfigDict = flax.struct.field(pytree_node=False)
   name: str = flax.struct.field(pytree_node=False)

@@ -9,7 +9,7 @@ compute it from a step's renders (`value`). The formulas themselves are the
 pure functions of halo_jax.losses.
 """
 import dataclasses
-from typing import Any, Callable, NamedTuple, Optional
+from typing import Any, Dict, NamedTuple, Optional, Protocol, Tuple, Union
 
 import jax
 import jax.numpy as jnp
@@ -18,6 +18,7 @@ import numpy as np
 from halo_jax import (geometry, losses, metrics, parallel, ray_fields, raycast, registry, rng,
                       samplers)
 from halo_jax.rays import Batch, Pixels, Rays
+from halo_jax.types import Array, Config, Params, Tree
 from halo_jax.stages import lo_targets, microbatch
 from halo_jax.stages.batches import StageData
 
@@ -29,43 +30,66 @@ class Inputs(NamedTuple):
   rays a term draws itself, the micro-batch part, the mesh, the bounds, the
   background, the guide (a trained ray field) or None, and what else a
   trainer hands its own terms (`extra`)."""
-  params: Any
-  model: Any
-  outs: list
+  params: Params
+  model: Any                # the stage's Flax field
+  outs: list                # raycast.composite dicts, first pass first
   batch: Batch
   data: StageData
   keys: tuple
-  part: Any
-  mesh: Any
+  part: Optional[Tuple[int, int]]
+  mesh: Any                 # a jax.sharding.Mesh or None
   near: float
   far: float
   white: bool
-  guide: Any
-  extra: Any = None
-
-
-@dataclasses.dataclass(frozen=True)
-class Term:
-  """active(cfg) -> bool; weight(cfg, step) -> scalar (may be traced);
-  value(Inputs, cfg) -> (loss, aux dict); needs(cfg) -> stage names;
-  prepare(setup) -> a pytree of arrays put on device under the term's name
-  in StageData.terms, or None (setup: a terms.Setup)."""
-  active: Callable
-  weight: Callable
-  value: Callable
-  needs: Callable = lambda cfg: ()
-  prepare: Optional[Callable] = None
-  geometries: frozenset = geometry.ALL
+  guide: Any                # raycast.Guide or None
+  extra: Optional[Dict[str, Any]] = None
 
 
 class Setup(NamedTuple):
   """What `prepare` gets: the run config, the stage config, the dataset, the
   training pixels (numpy rays.Pixels), and finished stages' states."""
-  config: Any
-  cfg: Any
-  dataset: Any
+  config: Config
+  cfg: Config
+  dataset: Any              # datasets.Dataset
   pixels: Pixels
   states: dict
+
+
+class ActiveFn(Protocol):
+  def __call__(self, cfg: Config) -> bool: ...
+
+
+class WeightFn(Protocol):
+  def __call__(self, cfg: Config, step: Array) -> Union[float, Array]: ...
+
+
+class ValueFn(Protocol):
+  """The term's unweighted loss (a scalar) and its aux metrics."""
+  def __call__(self, x: Inputs, cfg: Config) -> Tuple[Array, Dict[str, Array]]: ...
+
+
+class NeedsFn(Protocol):
+  def __call__(self, cfg: Config) -> Tuple[str, ...]: ...
+
+
+class PrepareFn(Protocol):
+  """A pytree of arrays put on device under the term's name in
+  StageData.terms (or None)."""
+  def __call__(self, setup: Setup) -> Tree: ...
+
+
+@dataclasses.dataclass(frozen=True)
+class Term:
+  """A loss term: whether a stage config switches it on, its weight at a
+  step (may be traced), its value on a step's Inputs, the finished stages
+  it reads, what it prepares once before training, and the ray geometries
+  it works on."""
+  active: ActiveFn
+  weight: WeightFn
+  value: ValueFn
+  needs: NeedsFn = lambda cfg: ()
+  prepare: Optional[PrepareFn] = None
+  geometries: frozenset = geometry.ALL
 
 
 TERMS = registry.Registry[Term]("loss term")

@@ -13,7 +13,7 @@ no earlier stage, so it regularises Lo-NeRF as well as Hi-NeRF.
 Settings: the stage's `unseen` section (weight 0: off). Registered as a
 loss term (stages.terms.TERMS); methods/halo_unseen.py switches it on.
 """
-from typing import Any, NamedTuple
+from typing import NamedTuple, Optional
 
 import jax
 import jax.numpy as jnp
@@ -21,6 +21,7 @@ import numpy as np
 
 from halo_jax import camera, geometry, losses, parallel, ray_fields, rng, visibility
 from halo_jax.stages import microbatch, terms
+from halo_jax.types import Array
 
 
 class UnseenBank(NamedTuple):
@@ -28,10 +29,10 @@ class UnseenBank(NamedTuple):
   directions of the rays they were drawn on [P, 3], their times [P, 1]
   (dynamic scenes, else None), and valid [P]: 0 for the one placeholder of a
   scene where every point is seen (P >= 1)."""
-  points: Any
-  dirs: Any
-  times: Any
-  valid: Any
+  points: Array
+  dirs: Array
+  times: Optional[Array]
+  valid: Array
 
 
 def _prepare(s: terms.Setup) -> UnseenBank:
