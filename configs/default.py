@@ -1,6 +1,6 @@
 """The default job: the built-in lattice scene (no download), CPU-sized.
 
-  python experiments/few_shot.py --config=configs/default.py --workdir=/tmp/halo_default
+  halo-compare --config=configs/default.py --workdir=/tmp/halo_default
   python -m halo_jax.cli.train --config=configs/default.py --workdir=/tmp/halo_run
 
 Eight rods of 0.035 radius and two thin bars round a small checkered core, in

@@ -3,7 +3,7 @@ user sees: writes results/faults.json and docs/failures.md from it.
 
   python experiments/faults.py            # ~3 minutes on 2 CPU cores
 
-Each case launches `python -m halo_jax.cli.train` (or experiments/few_shot.py) on
+Each case launches `python -m halo_jax.cli.train` (or halo_jax.cli.compare) on
 the built-in scene with a tiny model, and records the exit code, the last
 line on stderr, whether a Python traceback was printed, and what the workdir
 holds afterwards.

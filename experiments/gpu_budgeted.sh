@@ -15,7 +15,7 @@ py=${PYTHON:-python3}
 common=(--config="$cfg" --config.eval.lpips=False --config.eval.chunk=16384 "$@")
 for m in halo nerf_tuned; do
   cal=$work.cal_$m
-  $py experiments/few_shot.py "${common[@]}" --workdir="$cal" --methods="$m" \
+  $py -m halo_jax.cli.compare "${common[@]}" --workdir="$cal" --methods="$m" \
       --config.hi.steps=200 --config.hi.log_every=50 --curve_points=0 > "$out/cal_$m.log" 2>&1
   read -r steps alpha <<<"$($py - "$cal/$m/metrics.jsonl" "$budget" <<'PY'
 import json, sys
@@ -29,7 +29,7 @@ print(f"step {step_s*1e3:.2f} ms, offset {offset_s:.1f} s -> cap {steps}", file=
 PY
 )"
   echo "$m: hi.steps=$steps hi.joint.alpha_steps=$alpha"
-  $py experiments/few_shot.py "${common[@]}" --workdir="$work" --methods="$m" \
+  $py -m halo_jax.cli.compare "${common[@]}" --workdir="$work" --methods="$m" \
       --config.budget_s="$budget" --config.hi.steps="$steps" \
       --config.hi.joint.alpha_steps="$alpha" 2>&1 | grep -v "step/s" | tail -n 30
   tar czf "$out/$(basename "$work").tgz" --exclude=checkpoints --exclude=params \

@@ -15,7 +15,7 @@ common=(--config="$cfg" --config.eval.lpips=False --config.eval.chunk=16384
 for m in halo nerf_tuned; do
   if [ "$m" = halo ]; then caps=$halo_caps; else caps=$nerf_caps; fi
   # shellcheck disable=SC2086  # the caps are one flag per word
-  $py experiments/few_shot.py "${common[@]}" --methods="$m" $caps 2>&1 \
+  $py -m halo_jax.cli.compare "${common[@]}" --methods="$m" $caps 2>&1 \
       | grep -v "step/s" | tail -n 30
   tar czf "$out/$(basename "$work")_seed$seed.tgz" --exclude=checkpoints --exclude=params \
       -C "$(dirname "$work")" "$(basename "$work")"

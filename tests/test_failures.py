@@ -126,7 +126,7 @@ def test_a_second_launch_is_refused_and_kill_9_leaves_nothing_stale(config, tmp_
     assert holder.stdout.readline().strip() == "held"
     with pytest.raises(workdir_lock.WorkdirLocked, match=f"in use by pid {holder.pid} on host "):
       pipeline.run(config, wd)
-    res = subprocess.run([sys.executable, "experiments/few_shot.py", "--config=configs/default.py",
+    res = subprocess.run([sys.executable, "-m", "halo_jax.cli.compare", "--config=configs/default.py",
                           f"--workdir={wd}"], cwd=REPO, capture_output=True, text=True,
                          timeout=300)
     assert res.returncode == 2 and f"pid {holder.pid}" in res.stderr

@@ -99,7 +99,7 @@ def test_auto_encoding_searches_then_trains_lo_with_the_choice(config, scene_roo
 @pytest.mark.slow
 def test_sweep_cli_two_points(scene_root, tmp_path):
   wd = str(tmp_path / "sweep")
-  cmd = [sys.executable, "experiments/sweep.py", "--config=configs/default.py", f"--workdir={wd}",
+  cmd = [sys.executable, "-m", "halo_jax.cli.sweep", "--config=configs/default.py", f"--workdir={wd}",
          f"--config.data.root={scene_root}", "--config.stages=lo", "--config.lo.steps=3",
          "--config.lo.model.width=16", "--config.lo.model.depth=2", "--config.lo.batch_rays=64",
          "--config.lo.sampler.num_samples=8", "--config.data.factor=2",

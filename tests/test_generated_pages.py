@@ -8,8 +8,8 @@ import subprocess
 
 import pytest
 
-from experiments import (ablations, calibrate_frequency, code_version, dnerf_hi_init, faults,
-                         gpu_report, method_table, report, throughput_report, views_ablation)
+from experiments import (ablations, calibrate_frequency, code_version, faults, gpu_report,
+                         method_table, report, throughput_report)
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 RESULTS = os.path.join(REPO, "results")
@@ -107,13 +107,3 @@ def test_failures_page():
   _same(os.path.join(REPO, "docs", "failures.md"), faults.report(rows),
         "python experiments/faults.py")
 
-
-@pytest.mark.parametrize("module, result, page", [
-    (dnerf_hi_init, "ablations/dnerf_hi_init_val.json", "dnerf_hi_init.md"),
-    (views_ablation, "ablations/views_lego_8view.json", "views_ablation.md")])
-def test_one_off_study_pages(module, result, page, tmp_path):
-  with open(os.path.join(RESULTS, result)) as f:
-    data = json.load(f)
-  module.report(data, os.path.join(RESULTS, result), docs=str(tmp_path))
-  _same(os.path.join(DOCS, page), _read(tmp_path / page),
-        f"python experiments/{module.__name__.split('.')[-1]}.py --report_only")

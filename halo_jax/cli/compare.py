@@ -1,7 +1,6 @@
 """Every method on the same views with the same training wall-clock budget.
 
   halo-compare --config=configs/blender.py:lego_8view_cpu --workdir=DIR
-  (or python experiments/few_shot.py with the same flags)
 
 Trains each of --methods (default: all five of halo_jax.methods: nerf_paper,
 nerf_tuned, freenerf, halo, halo+freenerf; docs/baselines.md) for
