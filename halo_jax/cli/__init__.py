@@ -11,6 +11,8 @@ imports it. The commands that take a --config take the method apart from it
 (--method, or --methods for halo-compare): the config file names a scene,
 halo_jax/configure.py makes it into the method.
 """
+import contextlib
+
 from absl import flags, logging
 from ml_collections import config_flags
 
@@ -32,10 +34,13 @@ def config_of_flags(config_flag, method: str):
   return configure.as_method(config_flag.value, method, overrides)
 
 
-def run_in_workdir(run, config, workdir: str):
-  """run(config) as one launch of an experiment in `workdir`: absl's logging
-  quieted, the workdir locked for the launch, and bad input reported as one
-  line and exit 2, not a traceback."""
+@contextlib.contextmanager
+def launch(workdir: str = ""):
+  """One command's launch, the same for every command: absl's logging quieted
+  (orbax logs every save at INFO), bad input reported as one line and exit 2
+  instead of a traceback, and `workdir`, where given, locked for the launch
+  (a command that trains locks through pipeline.run instead)."""
   logging.set_verbosity(logging.WARNING)
-  with user_errors.reported(), workdir_lock.hold(workdir):
-    run(config)
+  lock = workdir_lock.hold(workdir) if workdir else contextlib.nullcontext()
+  with user_errors.reported(), lock:
+    yield

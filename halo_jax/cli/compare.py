@@ -24,7 +24,7 @@ import matplotlib.pyplot as plt  # pylint: disable=g-import-not-at-top
 from ml_collections import config_flags
 
 from halo_jax import config_files, datasets, pipeline, runs, tables
-from halo_jax.cli import config_of_flags, run_in_workdir
+from halo_jax.cli import config_of_flags, launch
 
 FLAGS = flags.FLAGS
 
@@ -100,7 +100,8 @@ def write_report(results, workdir, n_test):
 
 def main(argv):
   del argv
-  run_in_workdir(run, FLAGS.config, FLAGS.workdir)
+  with launch(FLAGS.workdir):
+    run(FLAGS.config)
 
 
 def run(config):

@@ -15,11 +15,12 @@ import copy
 import json
 import os
 
-from absl import app, flags, logging
+from absl import app, flags
 import numpy as np
 
-from halo_jax import datasets, evaluate, provenance, restore, user_errors
+from halo_jax import datasets, evaluate, provenance, restore
 from halo_jax.evaluate import predictions
+from halo_jax.cli import launch
 
 FLAGS = flags.FLAGS
 
@@ -94,8 +95,7 @@ def run_evaluation(workdir, stage=None, split="test", views="", out=None, data_r
 
 def main(argv):
   del argv
-  logging.set_verbosity(logging.WARNING)
-  with user_errors.reported():
+  with launch():
     r = run_evaluation(FLAGS.workdir, FLAGS.stage, FLAGS.split, FLAGS.views, FLAGS.out,
                        FLAGS.data_root, FLAGS.lpips)
   print(f"{r['stage']} on {r['num_views']} {r['split']} views")

@@ -11,10 +11,11 @@ plugin is not installed) and the first colour frame as PNG.
 """
 import os
 
-from absl import app, flags, logging
+from absl import app, flags
 import numpy as np
 
-from halo_jax import camera_paths, evaluate, image_files, restore, user_errors, video
+from halo_jax import camera_paths, evaluate, image_files, restore, video
+from halo_jax.cli import launch
 
 FLAGS = flags.FLAGS
 
@@ -59,8 +60,7 @@ def render_path(workdir, stage=None, path=None, frames=60, fps=20.0, out=None,
 
 def main(argv):
   del argv
-  logging.set_verbosity(logging.WARNING)
-  with user_errors.reported():
+  with launch():
     w = render_path(FLAGS.workdir, FLAGS.stage, FLAGS.path, FLAGS.frames, FLAGS.fps,
                     FLAGS.out, FLAGS.data_root, FLAGS.downscale)
   h, wd = w["size"]

@@ -20,7 +20,7 @@ from absl import app, flags
 from ml_collections import config_flags
 
 from halo_jax import config_files, configure, datasets, pipeline, plots, stages, tables, tuning
-from halo_jax.cli import config_of_flags, define_method_flag, run_in_workdir
+from halo_jax.cli import config_of_flags, define_method_flag, launch
 from halo_jax.stages import radiance
 
 FLAGS = flags.FLAGS
@@ -119,7 +119,8 @@ def report(rows, workdir):
 
 def main(argv):
   del argv
-  run_in_workdir(run, config_of_flags(FLAGS["config"], FLAGS.method), FLAGS.workdir)
+  with launch(FLAGS.workdir):
+    run(config_of_flags(FLAGS["config"], FLAGS.method))
 
 
 def run(config):

@@ -7,11 +7,11 @@ This file is kept short: the logic lives in `halo_jax.pipeline`.
 """
 import json
 
-from absl import app, flags, logging
+from absl import app, flags
 from ml_collections import config_flags
 
-from halo_jax import config_files, parallel, pipeline, user_errors
-from halo_jax.cli import config_of_flags, define_method_flag, view
+from halo_jax import config_files, parallel, pipeline
+from halo_jax.cli import config_of_flags, define_method_flag, launch, view
 
 FLAGS = flags.FLAGS
 config_flags.DEFINE_config_file("config", None, "Config file (path[:variant]).",
@@ -25,8 +25,7 @@ flags.mark_flags_as_required(["config", "workdir"])
 
 def main(argv):
   del argv
-  logging.set_verbosity(logging.WARNING)  # orbax logs every save at INFO
-  with user_errors.reported():
+  with launch():
     if FLAGS.view:
       view.check_port("127.0.0.1", FLAGS.view_port)
       view.launch_beside(FLAGS.workdir, FLAGS.view_port)

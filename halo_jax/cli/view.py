@@ -21,11 +21,12 @@ import threading
 import time
 from typing import Any, Dict
 
-from absl import app, flags, logging
+from absl import app, flags
 import numpy as np
 
 from halo_jax import plots, user_errors, viewer
 from halo_jax.geometry import Geometry
+from halo_jax.cli import launch
 
 FLAGS = flags.FLAGS
 PREVIEW = 4           # the first image of a move is --size divided by this
@@ -284,8 +285,7 @@ def wait_for_run(workdir: str, seconds: float) -> None:
 
 def main(argv):
   del argv
-  logging.set_verbosity(logging.WARNING)
-  with user_errors.reported():
+  with launch():
     wait_for_run(FLAGS.workdir, FLAGS.wait_s)
     served = start(FLAGS.workdir, FLAGS.stage, FLAGS.host, FLAGS.port, FLAGS.size,
                    FLAGS.data_root)
