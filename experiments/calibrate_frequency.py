@@ -8,10 +8,10 @@ leave-one-scene-out.
 
 For each scene (the CPU suite's scenes that have a Lo-NeRF: experiments/suites.py)
 every point of `tune.grid` trains a short Lo-NeRF (`--lo_steps`), scores rho on
-the scene's view pairs and Lo-NeRF's held-out PSNR (halo_jax/tuning.py). One
+the scene's view pairs and Lo-NeRF's held-out PSNR (halo_jax/frequency/tuning.py). One
 small JSON per scene goes to results/frequency/<scene>.json (committed: a scene
 whose file exists is not rerun; a killed scene resumes its grid from
---scratch). The report (halo_jax/calibration.py) chooses the threshold on all
+--scratch). The report (halo_jax/frequency/calibration.py) chooses the threshold on all
 scenes but one and evaluates it on the one left out, for each scene, and the
 threshold on all scenes (the value to freeze in defaults.py). It writes
 docs/results/frequency_calibration.md and a figure per scene.
@@ -28,7 +28,8 @@ REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 if __package__ in (None, ""):
   sys.path.insert(0, REPO)
 from experiments import run_file, suites  # pylint: disable=g-import-not-at-top
-from halo_jax import calibration, defaults, provenance  # pylint: disable=g-import-not-at-top
+from halo_jax import defaults, provenance  # pylint: disable=g-import-not-at-top
+from halo_jax.frequency import calibration  # pylint: disable=g-import-not-at-top
 from halo_jax.configure import load as method_config, set_field  # pylint: disable=g-import-not-at-top
 
 FLAGS = flags.FLAGS
@@ -76,7 +77,8 @@ def configure(scene, lo_steps, scratch, validation=False):
 
 
 def run_scene(scene, lo_steps, scratch, results, validation=False):
-  from halo_jax import datasets, pipeline, tuning  # pylint: disable=g-import-not-at-top
+  from halo_jax import datasets, pipeline  # pylint: disable=g-import-not-at-top
+  from halo_jax.frequency import tuning  # pylint: disable=g-import-not-at-top
   c = configure(scene, lo_steps, scratch, validation)
   workdir = os.path.join(scratch, scene.name)
   os.makedirs(workdir, exist_ok=True)
@@ -195,7 +197,8 @@ def _loo_table(scenes, loo):
 
 
 def _scene_section(name, s, frozen, relative, docs, prefix="frequency"):
-  from halo_jax import plots, tuning  # pylint: disable=g-import-not-at-top
+  from halo_jax import plots  # pylint: disable=g-import-not-at-top
+  from halo_jax.frequency import tuning  # pylint: disable=g-import-not-at-top
   first = s["grid"][0]["criterion"]
   lines = [f"## {name}", "",
            f"`{s['config']}`, Lo-NeRF {s['lo_steps']} steps per point, pairs "

@@ -13,7 +13,8 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from halo_jax import camera, encoding, frequency, losses, ray_fields, render, samplers
+from halo_jax import camera, encoding, losses, ray_fields, render, samplers
+from halo_jax.frequency import spectrum as frequency
 
 EPS32 = 2.0 ** -24
 

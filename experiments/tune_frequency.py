@@ -5,7 +5,7 @@
 
 Trains a short Lo-NeRF per point of `config.tune.grid`, from the highest
 frequency 2^(L-1)/s to the lowest, computes the criterion on pairs of nearby
-renders (halo_jax/tuning.py) and stops at the first point below
+renders (halo_jax/frequency/tuning.py) and stops at the first point below
 `config.tune.threshold`. With --full_grid every point is trained and scored.
 Writes DIR/results.json ({"grid": [{"L", "scale", "criterion", "psnr", ...}],
 "chosen": {"L", "scale"}}), DIR/results.md and DIR/criterion_vs_psnr.png, and
@@ -18,7 +18,8 @@ import os
 from absl import app, flags
 from ml_collections import config_flags
 
-from halo_jax import datasets, pipeline, plots, tables, tuning
+from halo_jax import datasets, pipeline, plots, tables
+from halo_jax.frequency import tuning
 from halo_jax.cli import run_in_workdir
 
 FLAGS = flags.FLAGS

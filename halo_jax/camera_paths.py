@@ -17,6 +17,7 @@ import numpy as np
 from halo_jax import camera
 from halo_jax.datasets.base import DataError, Views
 from halo_jax.datasets.llff import NDCViews, average_pose
+from halo_jax.datasets.llff_planes import PlaneRayViews
 from halo_jax.datasets.stanford_lf import LightFieldViews
 from halo_jax.geometry import Geometry
 
@@ -116,9 +117,12 @@ def views_for(path: str, dataset, n: int, downscale: int = 1):
     raise DataError(f"--path={path!r}: this scene ({geo.value} rays"
                     f"{', dynamic' if dataset.dynamic else ''}) takes one of "
                     f"{list(kinds)} or a .npy / .json file")
-  if geo == Geometry.TWO_PLANE:
+  slab = getattr(dataset.train, "slab", None)  # two planes placed in a scene (llff_planes)
+  if geo == Geometry.TWO_PLANE and slab is None:
     uv = uv_ellipse(dataset.train.uv, n) if path == "uv" else _read_file(path, geo)[0]
     return LightFieldViews(_blank(len(uv), h, w), uv, _names(len(uv)))
+  if slab is not None:
+    geo = Geometry.NDC   # its cameras move as a forward-facing scene's
   times = None
   if path in ("orbit", "orbit_time"):
     radius, elevation = orbit_for(test)
@@ -132,6 +136,8 @@ def views_for(path: str, dataset, n: int, downscale: int = 1):
     c2w, times = _read_file(path, geo)
   if dataset.dynamic and times is None:  # a static path through a dynamic scene: t = 0
     times = np.zeros(len(c2w), np.float32)
-  cls = NDCViews if geo == Geometry.NDC else Views
-  return cls(_blank(len(c2w), h, w), np.asarray(c2w, np.float32), focal,
-             _names(len(c2w)), None if times is None else np.asarray(times, np.float32))
+  views = (_blank(len(c2w), h, w), np.asarray(c2w, np.float32), focal, _names(len(c2w)),
+           None if times is None else np.asarray(times, np.float32))
+  if slab is not None:
+    return PlaneRayViews(*views, slab=slab)
+  return (NDCViews if geo == Geometry.NDC else Views)(*views)

@@ -245,7 +245,7 @@ def _parallel():
 
 
 def _tune():
-  """The frequency search (halo_jax.tuning)."""
+  """The frequency search (halo_jax.frequency.tuning)."""
   return ml_collections.ConfigDict(dict(
       grid="10:1,7:1,5:1,4:1,5:4,5:16",  # L:s points, searched high to low frequency
       # The first point whose rho (frequency.relative_spectrum_difference) is
@@ -333,7 +333,7 @@ def base_config() -> ml_collections.ConfigDict:
   c.hi.lr_final = 5e-5
   c.hi.precrop_steps = 0
   # auto: choose lo.encoding.L / scale with the frequency criterion before
-  # training (halo_jax/tuning.py; the search runs in <workdir>/tune once).
+  # training (halo_jax/frequency/tuning.py; the search runs in <workdir>/tune once).
   c.lo.encoding.auto = False
   # How the encodings' sin and cos are evaluated (halo_jax/trig.py):
   # "polynomial", vectorised multiply-adds (a CPU evaluates XLA's one element

@@ -12,7 +12,8 @@ import copy
 import json
 import os
 
-from halo_jax import datasets, parallel, provenance, stages, tuning, validate
+from halo_jax import datasets, parallel, provenance, stages, validate
+from halo_jax.frequency import tuning
 from halo_jax import workdir_lock
 from halo_jax.stages import base, collapse, metrics_log
 from halo_jax.stages.order import needed, parse_stages, stage_names

@@ -6,7 +6,8 @@ declaration (its ray geometry, whether frames carry times), not the data.
 """
 import math
 
-from halo_jax import datasets, geometry, models, samplers, trig, view_pairs
+from halo_jax import datasets, geometry, models, samplers, trig
+from halo_jax.frequency import view_pairs
 from halo_jax.registry import ConfigError, check
 from halo_jax.stages import base, order
 

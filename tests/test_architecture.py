@@ -5,7 +5,8 @@ import pathlib
 
 import pytest
 
-from halo_jax import datasets, models, samplers, view_pairs
+from halo_jax import datasets, models, samplers
+from halo_jax.frequency import view_pairs
 from halo_jax.methods import METHODS
 from halo_jax.stages import base, terms
 
@@ -15,13 +16,13 @@ PACKAGE = pathlib.Path(__file__).resolve().parent.parent / "halo_jax"
 # may import modules of its own layer or below.
 LAYERS = (
     {"registry", "types", "geometry", "rays", "trig", "encoding", "camera", "rng", "samplers", "render", "raycast",
-     "losses", "metrics", "lightfield", "frequency", "plots", "provenance", "visibility",
+     "losses", "metrics", "lightfield", "frequency", "frequency.spectrum", "plots", "provenance", "visibility",
      "tensorboard", "video", "image_files", "config_files", "tables"},
     {"models", "ray_fields", "datasets", "checkpoint", "parallel", "evaluate", "defaults",
-     "camera_paths", "view_pairs",
+     "camera_paths", "frequency.view_pairs",
      "workdir_lock"},
-    {"stages", "tuning", "validate", "methods", "configure", "pipeline", "user_errors",
-     "restore", "runs", "calibration", "front", "viewer"},
+    {"stages", "frequency.tuning", "validate", "methods", "configure", "pipeline", "user_errors",
+     "restore", "runs", "frequency.calibration", "front", "viewer"},
     {"cli", "integrations"},
 )
 

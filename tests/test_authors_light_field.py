@@ -1,12 +1,16 @@
 """The authors' light-field pieces (methods/halo_authors.py) against numpy
 transcriptions of their code (lsongx/halo, static/vcnerf: NormalEmbedder,
 EPINeLFUvSt's sampler, NeLFEPIField's layer sizes) on fixed inputs."""
+import os
+
 import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
 
+from conftest import SHARED_DATA
 from halo_jax import configure, encoding, lightfield, ray_fields, samplers
+from halo_jax.datasets import llff
 
 
 def _their_normal_embedder(inputs, freqs):
@@ -266,3 +270,22 @@ def test_select_best_needs_selection_views_and_never_a_test_view(tmp_path):
       "data.select_split": "test"})
   with pytest.raises(datasets.DataError, match="holds test views"):
     datasets.load(c.data, str(tmp_path))
+
+
+FERN = os.path.join(SHARED_DATA, "nerf_llff_data", "fern")
+
+
+@pytest.mark.skipif(not os.path.exists(FERN), reason="shared LLFF data absent")
+def test_llff_planes_rays_and_spiral(tmp_path):
+  from halo_jax import camera_paths, datasets
+  from halo_jax.datasets import llff_planes
+  c = configure.load("configs/llff.py:fern_4view_cpu", "halo_authors", {"data.root": FERN})
+  ds = datasets.load(c.data, str(tmp_path))
+  o, d = ds.train.rays()
+  assert np.all(o[..., 2] == 0) and np.all(d[..., 2] == 1)
+  # near is 0.9 x the nearest bound, far the farthest (their no-NDC LLFF)
+  bounds = llff.read_poses(FERN)[3]
+  assert (ds.near, ds.far) == pytest.approx((0.9 * bounds.min(), bounds.max()))
+  assert ds.epi_slope == "depth"
+  views = camera_paths.views_for("spiral", ds, 3)
+  assert isinstance(views, llff_planes.PlaneRayViews) and views.rays()[0].shape[0] == 3

@@ -8,7 +8,8 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from halo_jax import frequency, pipeline, tuning
+from halo_jax import pipeline
+from halo_jax.frequency import spectrum as frequency, tuning
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 H, W = 32, 40

@@ -9,7 +9,7 @@ DIR/<field=value,...>; a killed sweep resumes, finished points are restored),
 then writes DIR/results.json, DIR/results.md and DIR/sweep.png: for each point
 the held-out PSNR / SSIM / LPIPS of the last stage run, its training seconds
 and, when the point trained a Lo-NeRF, the frequency criterion of that Lo-NeRF
-(halo_jax/tuning.py, settings from config.tune).
+(halo_jax/frequency/tuning.py, settings from config.tune).
 """
 import copy
 import itertools
@@ -19,7 +19,8 @@ import os
 from absl import app, flags
 from ml_collections import config_flags
 
-from halo_jax import config_files, configure, datasets, pipeline, plots, stages, tables, tuning
+from halo_jax import config_files, configure, datasets, pipeline, plots, stages, tables
+from halo_jax.frequency import tuning
 from halo_jax.cli import config_of_flags, define_method_flag, launch
 from halo_jax.stages import radiance
 

@@ -71,7 +71,7 @@ def _load_llff_planes(cfg, workdir="") -> Dataset:
   test = llff_planes.load_views(root, cfg.factor, view_names(cfg.test_views, names) or names,
                                 slab)
   return Dataset(train, test, near, far, 0.0, bool(cfg.white_background), Geometry.TWO_PLANE,
-                 epi_slope="depth")
+                 depth_bounds=llff.read_poses(root)[3], epi_slope="depth")
 
 
 def _blender_split_names(root, split):
@@ -117,10 +117,11 @@ LOADERS.register("procedural", DatasetSpec(_load_procedural, Geometry.SPHERE, OR
 LOADERS.register("dnerf", DatasetSpec(_load_dnerf, Geometry.SPHERE, ORBIT_TIME, dynamic=True))
 LOADERS.register("llff", DatasetSpec(_load_llff, Geometry.NDC, SPIRAL))
 LOADERS.register("stanford_lf", DatasetSpec(_load_light_field, Geometry.TWO_PLANE, UV_PLANE))
-# LLFF photos cut by two planes (the authors' LLFF light field): no camera
-# paths yet, no view pairs for the frequency rule
+# LLFF photos cut by two planes (the authors' LLFF light field): NeRF's spiral
+# for videos; no view pairs, since the frequency rule tunes a Lo-NeRF this
+# method does not have
 LOADERS.register("llff_planes", DatasetSpec(_load_llff_planes, Geometry.TWO_PLANE, SceneFacts(
-    "", (), "depth fraction tau in [0, 1] between the near and far planes")))
+    "", ("spiral",), "depth fraction tau in [0, 1] between the near and far planes")))
 # your own photos (datasets/capture.py): 360-degree, and forward-facing in NDC
 LOADERS.register("capture", DatasetSpec(capture.load_sphere, Geometry.SPHERE, ORBIT))
 LOADERS.register("capture_ff", DatasetSpec(capture.load_forward, Geometry.NDC, SPIRAL))

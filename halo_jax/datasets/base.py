@@ -89,9 +89,9 @@ class Dataset:
       the origin), the sphere on which the ray field enters rays; else 0.
     white_background: images were composited onto white.
     geometry: what a ray is (halo_jax.geometry.Geometry).
-    depth_bounds: NDC: [N, 2] near / far scene depth of every camera of the
-      scene (LLFF's poses_bounds, scaled as the poses are), which place its
-      spiral paths; else None.
+    depth_bounds: LLFF (NDC, llff_planes): [N, 2] near / far scene depth of
+      every camera of the scene (LLFF's poses_bounds, scaled as the poses
+      are), which place its spiral paths; else None.
     facts: its kind's SceneFacts (datasets.load sets its registry entry's).
     epi_slope: TWO_PLANE: how near / far read (lightfield.SLOPES): EPI angles
       ('angle'), or distances from the (u, v) plane ('depth').

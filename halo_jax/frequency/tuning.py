@@ -1,10 +1,10 @@
 """Choosing Lo-NeRF's P.E. frequency without extra data (HALO sec. 4.1).
 
 Short Lo-NeRFs are trained from the highest frequency of `config.tune.grid`
-to the lowest; for each, pairs of nearby views (halo_jax/view_pairs.py: orbit
+to the lowest; for each, pairs of nearby views (halo_jax/frequency/view_pairs.py: orbit
 neighbours, spiral neighbours in NDC, a fixed time per pair for dynamic
 scenes) are rendered at the criterion resolution and compared with the
-scale-free `frequency.relative_spectrum_difference` (rho); the first (L, s)
+scale-free `spectrum.relative_spectrum_difference` (rho); the first (L, s)
 whose rho falls below `config.tune.threshold` is chosen. The threshold was
 calibrated across scenes by leave-one-scene-out (docs/frequency.md). Held-out
 PSNR is measured for the report only; it never enters the choice.
@@ -17,7 +17,7 @@ from typing import List, Tuple
 
 import numpy as np
 
-from halo_jax import frequency, view_pairs
+from halo_jax.frequency import spectrum, view_pairs
 from halo_jax.stages import base, collapse
 from halo_jax.stages.state import load
 
@@ -49,7 +49,7 @@ def criterion_of(render, dataset, config) -> dict:
   t = config.tune
   pairs = view_pairs.make(render, dataset, t.num_pairs, t.size, t.shift_px, t.seed,
                           config.eval.chunk)
-  rho = lambda b: [float(frequency.relative_spectrum_difference(
+  rho = lambda b: [float(spectrum.relative_spectrum_difference(
       pairs["a"][i:i + 1], b[i:i + 1], t.mask_fraction)) for i in range(len(b))]
   plain, warped = rho(pairs["b"]), rho(pairs["b_warped"])
   per_pair = warped if t.warp else plain

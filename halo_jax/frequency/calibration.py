@@ -11,7 +11,7 @@ from typing import Dict, List, Sequence
 
 import numpy as np
 
-from halo_jax import tuning
+from halo_jax.frequency import tuning
 
 
 def scored(scenes: Dict[str, dict], relative: bool, key: str = "criterion") -> Dict[str, dict]:
