@@ -1,6 +1,6 @@
 """Two processes joined by jax.distributed on this machine (CPU, gloo): the
 same loss trajectory as one process, one writer, and a lost peer ends the job
-instead of hanging it. docs/parallel.md says how to launch on a
+instead of hanging it. docs/throughput.md (data parallelism) says how to launch on a
 cluster."""
 import json
 import os
