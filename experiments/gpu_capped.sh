@@ -7,13 +7,15 @@
 #   experiments/gpu_capped.sh CONFIG BUDGET_S WORKDIR OUT SEED "HALO_CAPS" "NERF_CAPS"
 # where each *_CAPS is a space-separated list of --config.* flags. After each
 # method a tarball of the workdir (without checkpoints) is written to OUT.
+# HALO_METHOD (default halo) names the HALO method, e.g. halo_authors.
 set -euo pipefail
 cfg=$1 budget=$2 work=$3 out=$4 seed=$5 halo_caps=$6 nerf_caps=$7
 py=${PYTHON:-python3}
 common=(--config="$cfg" --config.eval.lpips=False --config.eval.chunk=16384
         --config.budget_s="$budget" --config.seed="$seed" --workdir="$work")
-for m in halo nerf_tuned; do
-  if [ "$m" = halo ]; then caps=$halo_caps; else caps=$nerf_caps; fi
+halo=${HALO_METHOD:-halo}
+for m in "$halo" nerf_tuned; do
+  if [ "$m" = "$halo" ]; then caps=$halo_caps; else caps=$nerf_caps; fi
   # shellcheck disable=SC2086  # the caps are one flag per word
   $py -m halo_jax.cli.compare "${common[@]}" --methods="$m" $caps 2>&1 \
       | grep -v "step/s" | tail -n 30
