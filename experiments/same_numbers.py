@@ -79,6 +79,10 @@ flags.DEFINE_string("commit", "", "measure this commit instead of the checkout: 
                     "worktree of it runs this script")
 
 
+# Fingerprinted beside the suite's methods: the authors' recipe (static scenes).
+AUTHORS = ("halo_authors",)
+
+
 def scene_list():
   """[(name, config spec, data folder, methods)] for the --scenes flag."""
   by_name = {s.name: s for s in suites.CPU.scenes}
@@ -86,10 +90,11 @@ def scene_list():
   wanted = [m for m in FLAGS.methods.split(",") if m]
   for name in FLAGS.scenes.split(","):
     if name == "default":
-      out.append((name, "configs/default.py", "", tuple(suites.ALL_METHODS)))
+      out.append((name, "configs/default.py", "", tuple(suites.ALL_METHODS) + AUTHORS))
     else:
       s = by_name[name]
-      out.append((name, s.config, s.needs, tuple(s.methods)))
+      static = not name.startswith("dnerf")
+      out.append((name, s.config, s.needs, tuple(s.methods) + (AUTHORS if static else ())))
   return [(n, spec, needs, tuple(m for m in ms if not wanted or m in wanted))
           for n, spec, needs, ms in out]
 

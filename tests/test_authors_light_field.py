@@ -206,6 +206,8 @@ def test_halo_authors_on_blender_is_their_static_recipe():
   assert hi.init_from_lo and hi.init_skip_fresh and not hi.encoding.with_lo
   assert (hi.lr_init, hi.lr_power) == (pytest.approx(5e-3), 1.0)
   assert hi.lr_final == pytest.approx(5e-5)
+  # their loaded rate as it stands, also where the CPU config's base rate is 4x the paper's
+  assert configure.load("configs/blender.py:lego_8view_cpu", "halo_authors").hi.lr_init == 5e-3
   drums = configure.load("configs/blender.py:drums_8view", "halo_authors").hi
   assert (drums.lr_init, drums.lr_final, drums.lr_power) == (5e-4, pytest.approx(5e-6), 2.0)
   assert drums.empty.start_step == 2000 and not drums.init_from_lo
