@@ -64,11 +64,11 @@ def two_plane(c):
                   random_rays=random_rays, color_weight=1.0, nerf_consist_weight=0.0,
                   field="nelf", num_features=FEATURES)
   hi.joint.model.update(width=hi.model.width, depth=hi.model.depth, skips=tuple(hi.model.skips))
+  # theta: their epi_embedder's 5 frequencies
   hi.fourier.update(st_kind="axis", theta_kind="axis", uv_kind="axis", st_features=FEATURES,
-                    uv_std=hi.joint.uv_std, uv_features=1, uv_drawn=FEATURES)
+                    theta_features=5, uv_std=hi.joint.uv_std, uv_features=1, uv_drawn=FEATURES)
   hi.model.update(density_activation="relu", density_bias=0.0, color_width=hi.model.width)
   hi.density_noise = 1.0
-  hi.fourier.theta_features = 5   # their epi_embedder's nb_freqs
 
 
 # LLFF (their epi_nelf_sparse_llff_trex.py)

@@ -47,7 +47,7 @@ def check(config, name, dspec):
   registry.check(cfg.joint.get("field", "oblique") in ("oblique", "nelf"),
                  f"{name}.joint.field={cfg.joint.get('field')!r}: use 'oblique' or 'nelf'")
   registry.check(not cfg.joint.get("random_full", False)
-                 or cfg.sampler.kind in ("joint_blended", "joint_blended_even"),
+                 or _sampler(cfg).guided_edges is not None,
                  f"{name}.joint.random_full=True: the random rays' full range is a blended "
                  "window of width 0; use sampler.kind 'joint_blended' or 'joint_blended_even'")
   n_full = full_range_samples(cfg)
