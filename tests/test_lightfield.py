@@ -201,7 +201,10 @@ def test_random_rays_train_the_ray_field_only(tmp_path):
   gradient and leaves the radiance field's exactly as it was."""
   c = lf_config(write_light_field(str(tmp_path / "lf")))
   _, data, out = joint_loss_grads(c, "random_rays", (0, 16))
-  np.testing.assert_allclose(data.terms["lf_random"], [[-1, -1], [1, 1]], atol=1e-6)
+  # (u, v) spans the corner cameras; (s, t) the 16-pixel centres, +-15/16
+  edge = 15 / 16
+  np.testing.assert_allclose(data.terms["lf_random"],
+                             [[-1, -1, -edge, -edge], [1, 1, edge, edge]], atol=1e-6)
   assert float(out[16][0]["consist_random"]) > 0
   assert_leaves_equal(out[0][1]["nerf"], out[16][1]["nerf"])
   assert max_leaf_difference(out[0][1]["ray"], out[16][1]["ray"]) > 1e-6

@@ -287,8 +287,8 @@ def two_plane_rays(uv, st) -> Rays:
 def camera_box(pixels):
   """The box of the training rays' (u, v, s, t), [2 (min, max), 4] (numpy),
   where the random rays of L_consist are drawn: (u, v) between the
-  training cameras; (s, t) [-1, 1] where the image plane is the grid's, the
-  rays' own extent where the planes were placed in a scene."""
+  training cameras, (s, t) over the training pixels' extent (the pixel
+  centres, inside [-1, 1] on a grid's image plane)."""
   uvst = np.concatenate([pixels.rays.origins[:, :2], pixels.rays.dirs[:, :2]], -1)
   return np.stack([uvst.min(0), uvst.max(0)])
 
