@@ -1,4 +1,4 @@
-"""D-NeRF dynamic scenes: time as a low-frequency input (docs/dynamic.md).
+"""D-NeRF dynamic scenes: time as a low-frequency input (docs/scene_kinds.md).
 
 Variants (the string after the colon), for any D-NeRF scene by name
 (lego, hook, jumpingjacks, mutant, standup, trex, bouncingballs, hellwarrior):

@@ -1,4 +1,4 @@
-"""Two-plane light fields (Stanford Light Field Archive), docs/light_fields.md.
+"""Two-plane light fields (Stanford Light Field Archive), docs/scene_kinds.md.
 
 Variants (the string after the colon):
   <scene>       the paper's protocol: train on the grid corners (4,4) (4,12)
@@ -37,7 +37,7 @@ def get_config(arg: str = "knights"):
   defaults.light_field_stage(hi)
   # Training rays composited onto a random colour (the authors' code): every
   # ray must end in something opaque, as every pixel of these scenes is; the
-  # baseline gets it too (docs/light_fields.md).
+  # baseline gets it too (docs/scene_kinds.md).
   hi.random_background = True
   c.lo.precrop_steps = hi.precrop_steps = 0  # the scene fills every view: no centre crop
   hi.joint.alpha_steps = 20000   # the paper: alpha reaches 0.5 after 20k iterations
@@ -45,7 +45,7 @@ def get_config(arg: str = "knights"):
   # field's (their std 64 -> 5.09), (u, v) near linear across the grid (their
   # std 16 over the knights' camera positions / 1024 -> 0.17): held-out views
   # lie between the cameras, where a ray field with high (u, v) frequencies
-  # is free to wander (docs/light_fields.md).
+  # is free to wander (docs/scene_kinds.md).
   hi.joint.update(std=5.09, uv_std=0.17)
   if cpu:
     c.budget_s = CPU_BUDGET_S
@@ -62,7 +62,7 @@ def get_config(arg: str = "knights"):
     # The authors' sampler (their code, not the paper's formula): half the
     # samples over the whole range, half in a window, so density can still
     # form outside the window (without it, narrow windows collapse:
-    # docs/light_fields.md); with the ray-field frequencies above the window
+    # docs/scene_kinds.md); with the ray-field frequencies above the window
     # can narrow to +-0.1.
     hi.joint.update(full_range=0.5, alpha_final=0.1)
     # The authors' (s', t') frequencies in our units (10 features of std

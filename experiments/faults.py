@@ -1,5 +1,5 @@
 """Every bad input and fault we know of, tried as a user would, and what the
-user sees: writes results/faults.json and docs/failures.md from it.
+user sees: writes results/faults.json and docs/results/failures.md from it.
 
   python experiments/faults.py            # ~3 minutes on 2 CPU cores
 
@@ -193,7 +193,6 @@ def case_collapsed(wd):
 
 def _scene(wd, corrupt):
   """A copy of the built-in scene with one thing broken by `corrupt(root)`."""
-  sys.path.insert(0, REPO)
   from halo_jax.datasets import procedural  # pylint: disable=g-import-not-at-top
   root = procedural.generate(os.path.join(wd + "_scene"), size=64)
   corrupt(root)
@@ -229,7 +228,7 @@ def case_non_rigid_pose(wd):
 LOST_PEER = """
 import sys
 from halo_jax import parallel, pipeline, user_errors
-from configs import default
+from halo_jax.configs import default
 c = default.get_config()
 c.data.root = sys.argv[4]  # generated beforehand: two processes must not write one scene
 c.stages = "lo"
@@ -359,7 +358,7 @@ def main():
   os.makedirs(os.path.join(REPO, "results"), exist_ok=True)
   with open(os.path.join(REPO, "results", "faults.json"), "w") as f:
     json.dump(rows, f, indent=1)
-  with open(os.path.join(REPO, "docs", "failures.md"), "w") as f:
+  with open(os.path.join(REPO, "docs", "results", "failures.md"), "w") as f:
     f.write(report(rows))
 
 

@@ -15,6 +15,8 @@ configs=("$@")
 [ ${#configs[@]} -gt 0 ] || configs=(configs/blender.py:lego_8view
     "configs/blender.py:lego_8view --config.sin_cos=xla" configs/blender.py:lego_8view_cpu)
 py=${PYTHON:-python3}
+# the checkout's package, whether or not it is installed
+export PYTHONPATH="$PWD${PYTHONPATH:+:$PYTHONPATH}"
 tmp=$(mktemp -d)
 for run in "${configs[@]}"; do
   read -ra args <<< "$run"

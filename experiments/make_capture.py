@@ -9,13 +9,11 @@ halo-train then runs structure-from-motion on them first (pycolmap).
 """
 import os
 import shutil
-import sys
 import tempfile
 
 from absl import app, flags
 
-sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
-from halo_jax.datasets import procedural  # noqa: E402
+from halo_jax.datasets import procedural
 
 FLAGS = flags.FLAGS
 flags.DEFINE_string("out", None, "folder to write the photos to (images/ inside it)")

@@ -12,15 +12,12 @@ PSNR is there to show the quantisation's effect (it should match the float
 """
 import json
 import os
-import sys
 
 from absl import app, flags
 import imageio.v3 as iio
 import numpy as np
 
-if __package__ in (None, ""):
-  sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-from halo_jax import checkpoint, datasets, evaluate  # pylint: disable=g-import-not-at-top
+from halo_jax import checkpoint, datasets, evaluate
 
 FLAGS = flags.FLAGS
 

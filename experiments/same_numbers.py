@@ -10,7 +10,7 @@ within --tolerance_db.
   ... change the code ...
   python experiments/same_numbers.py --out=/tmp/after.json --compare=/tmp/before.json
 
-The same runs fingerprint the code (experiments/code_version.py): --record
+The same runs fingerprint the code (halo_jax/bench/code_version.py): --record
 stores each method's fingerprint, the hash of its runs' figures, in
 results/fingerprints.json under the code tree of the checkout, and
 --commit=SHA measures an earlier commit in a temporary git worktree:
@@ -48,19 +48,22 @@ os.environ["XLA_FLAGS"] = (os.environ.get("XLA_FLAGS", "")
 
 from absl import app, flags  # noqa: E402
 
-sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
-from experiments import suites  # noqa: E402
+import halo_jax  # noqa: E402
 from halo_jax import datasets, defaults, pipeline, provenance, runs  # noqa: E402
+
+# This copy also runs in worktrees of older commits (--commit), whose suites
+# are experiments/suites.py and which have no fingerprints to record.
+if os.path.isdir(os.path.join(os.path.dirname(halo_jax.__file__), "bench")):
+  from halo_jax.bench import code_version, suites  # noqa: E402
+else:
+  from experiments import suites  # noqa: E402
+  code_version = None
 
 try:  # the one loader; a worktree of a commit older than it has runs.load_config_as
   from halo_jax.configure import load as load_as_method  # noqa: E402
 except ImportError:
   load_as_method = runs.load_config_as  # pylint: disable=no-member
 
-try:  # a worktree of an older commit runs this copy, without code_version's fingerprints
-  from experiments import code_version  # noqa: E402
-except ImportError:
-  code_version = None
 
 FLAGS = flags.FLAGS
 flags.DEFINE_string("out", None, "JSON file the figures are written to (after each run; "
@@ -171,8 +174,10 @@ def measure_commit(commit: str) -> dict:
         shutil.copy(FLAGS.out, out)
       args = [f"--out={out}", f"--steps={FLAGS.steps}", f"--views={FLAGS.views}",
               f"--scenes={FLAGS.scenes}", f"--methods={FLAGS.methods}", f"--shard={FLAGS.shard}"]
+      # the worktree's own package first, before the installed one
+      env = dict(os.environ, PYTHONPATH=tree)
       subprocess.run([sys.executable, os.path.join(tree, "experiments", "same_numbers.py"), *args],
-                     check=True, cwd=tree)
+                     check=True, cwd=tree, env=env)
       shutil.copy(out, FLAGS.out)
       with open(out) as f:
         return json.load(f)

@@ -2,7 +2,7 @@
 
   python experiments/stability.py [--out=DIR]
 
-Each row is one quantity of one case (experiments/stability_cases.py): its largest
+Each row is one quantity of one case (halo_jax/bench/stability_cases.py): its largest
 error against a closed form or a float64 numpy reference, the tolerance, and
 whether every value and gradient was finite. Exits with status 1 if any row
 fails. With --out, also writes DIR/stability.json and DIR/stability.md.
@@ -14,10 +14,7 @@ import sys
 
 from absl import app, flags
 
-REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-if __package__ in (None, ""):  # run as a script: the repository root holds `experiments`
-  sys.path.insert(0, REPO)
-from experiments import stability_cases as stability  # pylint: disable=g-import-not-at-top
+from halo_jax.bench import stability_cases as stability
 
 flags.DEFINE_string("out", "", "folder for stability.json / stability.md (optional)")
 FLAGS = flags.FLAGS

@@ -19,9 +19,8 @@ import time
 from absl import app, flags, logging
 import numpy as np
 
-sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
-from halo_jax import provenance  # noqa: E402
-from halo_jax.cli import view  # noqa: E402
+from halo_jax import provenance
+from halo_jax.cli import view
 
 FLAGS = flags.FLAGS
 flags.DEFINE_string("runs", "/tmp/viewer_runs", "where the runs are (trained if missing)")

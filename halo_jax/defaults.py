@@ -128,7 +128,7 @@ def _hi_extras(cfg):
   ))
   # sampler.kind='joint': a low-frequency ray field trained with this stage
   # (L_consist) places the samples in tau_ray +- alpha, alpha falling linearly
-  # from 1 to alpha_final over alpha_steps (docs/light_fields.md).
+  # from 1 to alpha_final over alpha_steps (docs/scene_kinds.md).
   cfg.joint = ml_collections.ConfigDict(dict(consist_weight=1.0, alpha_final=0.5,
                                              alpha_steps=20000))
   # FreeNeRF (methods/freenerf.py): the P.E. bands open linearly until

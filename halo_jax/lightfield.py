@@ -1,5 +1,5 @@
 """Two-plane light fields: the EPI point parameterisation and the joint
-sampler's schedule (docs/light_fields.md). Pure functions.
+sampler's schedule (docs/scene_kinds.md). Pure functions.
 
 A ray is (u, v, s, t): u, v on the camera plane, s, t on the image plane. A
 point on it is (u, v, s, t, theta), theta the slope of its line in the

@@ -237,7 +237,7 @@ class DeformNeRF(nn.Module):
 
 
 class EPINeRF(nn.Module):
-  """Radiance field of a two-plane light field in EPI coordinates (docs/light_fields.md).
+  """Radiance field of a two-plane light field in EPI coordinates (docs/scene_kinds.md).
 
   Points are (s', t', theta): the image-plane position aligned to the central
   view and the EPI angle; the view input is the camera-plane (u, v). Inputs

@@ -8,43 +8,21 @@ not in the list is restored from the workdir, where an earlier launch left
 it. Nothing here branches on a model, sampler, method or data kind.
 """
 import contextlib
-import copy
 import json
 import os
 
 from halo_jax import datasets, parallel, provenance, stages, validate
 from halo_jax.frequency import tuning
 from halo_jax import workdir_lock
-from halo_jax.stages import base, collapse, metrics_log
+from halo_jax.stages import base, budget, collapse, metrics_log
 from halo_jax.stages.order import needed, parse_stages, stage_names
 from halo_jax.stages.state import load, save, stage_dir
 from halo_jax.stages.workdir import check_workdir
 
 
 def with_budget(config):
-  """A copy of config whose stages' max_seconds split config.budget_s by share.
-
-  Shares are normalised over the stages the method's output stage
-  (config.final_stage) needs, so a launch of one stage gets the same time as
-  in a full run, and a one-stage baseline gets all of it.
-  """
-  config = copy.deepcopy(config)
-  if config.budget_s > 0:
-    names = needed(config, config.final_stage)
-    total = sum(config.budget_shares[n] for n in names)
-    for n in names:
-      config[n].max_seconds = config.budget_s * config.budget_shares[n] / total
-  return config
-
-
-def _budget_until(config) -> dict:
-  """{stage: seconds of the budget given to the method's stages up to and
-  including it} (with_budget's max_seconds, summed in order)."""
-  until, total = {}, 0.0
-  for n in needed(config, config.final_stage):
-    total += config[n].max_seconds
-    until[n] = total
-  return until
+  """A copy of config with its stages' shares of the budget (budget.split)."""
+  return budget.split(config)
 
 
 def _info_path(workdir, name):
@@ -95,18 +73,13 @@ def _run(config, workdir, dataset, pacer):
   log = metrics_log.MetricsLog(workdir)
   mesh = parallel.make_mesh(config.parallel)
   states, infos, wall = {}, {}, 0.0
-  until = _budget_until(config)
+  until = budget.cumulative(config)
   for name in needed(config):
     if name not in run_now:
       states[name], info = _restore(config, name, dataset, workdir)
       wall += info["wall_s"]
       continue
-    if config.budget_s > 0:
-      # A stage that reached its step cap before its share of the budget
-      # leaves the rest to the next, and one that ran past its share (its
-      # min_steps floor) takes the excess from the next, so the method trains
-      # for budget_s; the last stage's floor is the only way past it.
-      config[name].max_seconds = max(until[name] - wall, 1e-3)
+    budget.start_stage(config, name, until, wall)
     ctx = base.StageContext(config, name, dataset, workdir, dict(states), log, wall, mesh, pacer)
     state, info = base.trainer_of(config, name).train(ctx)
     wall += info["wall_s"]

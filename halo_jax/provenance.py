@@ -47,6 +47,8 @@ def cpu_count() -> int:
 
 # The files whose contents decide what a run trains, scores and times: two
 # checkouts that agree on them make the same numbers, whatever else differs.
+# The benchmark's runner and suites lived in experiments/ before halo_jax/bench/;
+# their old paths stay so that older commits hash as they always did.
 TRAINING_CODE = ("halo_jax", "configs", "experiments/benchmark.py", "experiments/suites.py")
 
 

@@ -8,8 +8,7 @@ import sys
 import pytest
 
 REPO = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..")
-sys.path.insert(0, REPO)
-from experiments import ablations  # pylint: disable=g-import-not-at-top
+from halo_jax.bench import ablations  # pylint: disable=g-import-not-at-top
 
 
 def _write(path, rec):

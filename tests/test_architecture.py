@@ -23,7 +23,7 @@ LAYERS = (
      "workdir_lock"},
     {"stages", "frequency.tuning", "validate", "methods", "configure", "pipeline", "user_errors",
      "restore", "runs", "frequency.calibration", "front", "viewer"},
-    {"cli", "integrations"},
+    {"cli", "integrations", "bench"},
 )
 
 

@@ -2,14 +2,12 @@
 import json
 import os
 import shutil
-import sys
 
 import pytest
 
-sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
 from halo_jax import configure, datasets  # pylint: disable=g-import-not-at-top
 from halo_jax.stages import collapse  # pylint: disable=g-import-not-at-top
-from experiments import benchmark, suites  # pylint: disable=g-import-not-at-top
+from halo_jax.bench import benchmark, suites  # pylint: disable=g-import-not-at-top
 
 
 def test_cpu_plan_is_seed_major_and_complete():

@@ -1,9 +1,9 @@
-"""experiments/code_version.py: records pool by the fingerprint their code measures."""
+"""halo_jax/bench/code_version.py: records pool by the fingerprint their code measures."""
 import subprocess
 
 import pytest
 
-from experiments import code_version
+from halo_jax.bench import code_version
 from halo_jax import provenance
 
 

@@ -8,8 +8,9 @@ import subprocess
 
 import pytest
 
-from experiments import (ablations, calibrate_frequency, code_version, faults, gpu_report,
-                         method_table, report, throughput_report)
+from experiments import faults
+from halo_jax.bench import (ablations, calibrate_frequency, code_version, gpu_report, method_table,
+                            report, throughput_report)
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 RESULTS = os.path.join(REPO, "results")
@@ -104,6 +105,6 @@ def test_method_table_block():
 def test_failures_page():
   with open(os.path.join(RESULTS, "faults.json")) as f:
     rows = json.load(f)
-  _same(os.path.join(REPO, "docs", "failures.md"), faults.report(rows),
+  _same(os.path.join(REPO, "docs", "results", "failures.md"), faults.report(rows),
         "python experiments/faults.py")
 

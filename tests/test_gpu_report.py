@@ -7,7 +7,8 @@ import imageio.v3 as iio
 import numpy as np
 import pytest
 
-from experiments import gpu_report, rescore_renders
+from experiments import rescore_renders
+from halo_jax.bench import gpu_report
 
 
 def _run(seed, methods):

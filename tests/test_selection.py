@@ -1,7 +1,7 @@
-"""experiments/selection.py: --only picks runs by name, and says why it picks none."""
+"""halo_jax/bench/selection.py: --only picks runs by name, and says why it picks none."""
 import pytest
 
-from experiments import selection
+from halo_jax.bench import selection
 
 RUNS = [("lego", "halo", 0), ("lego", "halo+unseen", 0), ("fern", "halo", 1)]
 

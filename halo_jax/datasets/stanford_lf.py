@@ -1,7 +1,7 @@
 """Two-plane light fields in the Stanford Light Field Archive layout.
 
 Files `out_RR_CC_<Y>_<X>.(jpg|png)`: RR, CC the row and column on the camera
-grid (17x17 for the archive). Coordinates (docs/light_fields.md), all in [-1, 1]:
+grid (17x17 for the archive). Coordinates (docs/scene_kinds.md), all in [-1, 1]:
   u, v: camera-plane position from the grid column and row, sign * (CC - c) / c
         with c the grid centre (8 for 17x17) and the signs `grid_signs`;
   s, t: image-plane position of the pixel centre, (x + 0.5) / W * 2 - 1.

@@ -44,7 +44,7 @@ from halo_jax.geometry import Geometry
 from halo_jax.integrations import nerfbaselines_scene as nb_scene
 from halo_jax.integrations.nerfbaselines_info import method_info
 from halo_jax.registry import ConfigError
-from halo_jax.stages import base, order, pacing, progress, state
+from halo_jax.stages import base, budget, order, pacing, state
 
 DEFAULT_CONFIGS = {"object": "blender.py:lego_8view", "capture": "capture.py:8view",
                    "forward": "capture.py:8view_ff"}
@@ -167,7 +167,7 @@ class HaloMethod:
 
   def num_iterations(self) -> int:
     """One iteration a training step of each stage the method's output needs."""
-    return sum(progress.last_step(self.config[n]) for n in order.needed(self.config))
+    return sum(budget.last_step(self.config[n]) for n in order.needed(self.config))
 
   # Training.
   def train_iteration(self, step: int) -> Dict[str, float]:
@@ -246,13 +246,13 @@ class HaloMethod:
 
   def _is_last(self, rec) -> bool:
     names = order.needed(self.config)
-    return rec.stage == names[-1] and rec.step == progress.last_step(self.config[names[-1]])
+    return rec.stage == names[-1] and rec.step == budget.last_step(self.config[names[-1]])
 
   def _taken(self) -> int:
     """Iterations taken so far: finished stages' steps and the current stage's."""
     names, rec = order.needed(self.config), self._last
     done = names[:names.index(rec.stage)]
-    return sum(progress.last_step(self.config[n]) for n in done) + rec.step
+    return sum(budget.last_step(self.config[n]) for n in done) + rec.step
 
   def save(self, path: str) -> None:
     step = self._settle()

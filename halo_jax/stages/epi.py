@@ -1,4 +1,4 @@
-"""The radiance-field stage for two-plane light fields (docs/light_fields.md).
+"""The radiance-field stage for two-plane light fields (docs/scene_kinds.md).
 
 The field is an EPINeRF over (s', t', theta); every ray is rendered over the
 angle range [theta_n, theta_f], parameterised by tau in [0, 1].
@@ -9,7 +9,7 @@ angle range [theta_n, theta_f], parameterised by tau in [0, 1].
   field follows the radiance field's expected tau through
   L_consist = |tau_ray - tau_nerf|^2 (tau_nerf held fixed in that loss).
   Options from the authors' code and the paper, off by default
-  (docs/light_fields.md): random rays between the cameras, a colour head on
+  (docs/scene_kinds.md): random rays between the cameras, a colour head on
   the ray field, and L_consist into the radiance field as well.
 With `random_background`, training rays are composited onto a random colour
 (either sampler), so every ray must end in something opaque.

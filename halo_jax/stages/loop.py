@@ -2,7 +2,6 @@
 checkpoints, snapshots for the front and the metrics log around the jitted
 step (stages/step.py).
 """
-import copy
 import os
 import time
 from typing import Callable, Optional
@@ -10,18 +9,9 @@ from typing import Callable, Optional
 import jax
 
 from halo_jax import checkpoint, parallel, tensorboard
-from halo_jax.stages import collapse, pacing, preemption, progress, selection, snapshots
+from halo_jax.stages import budget, collapse, pacing, preemption, progress, selection, snapshots
 from halo_jax.stages.metrics_log import MetricsLog
 from halo_jax.stages.step import NONFINITE_WHAT, initial_state, make_step, optimizer, schedule
-
-
-def minus_seconds(cfg, seconds):
-  """A copy of a stage config whose time cap leaves room for `seconds` the stage
-  already spent outside the loop (e.g. rendering Lo-NeRF targets)."""
-  cfg = copy.deepcopy(cfg)
-  if cfg.max_seconds:
-    cfg.max_seconds = max(cfg.max_seconds - seconds, 1e-3)
-  return cfg
 
 
 class NonFiniteError(RuntimeError):
@@ -256,8 +246,7 @@ def _info(run, start, step, compile_s, constant_psnr) -> dict:
   cfg = run.cfg
   return {"wall_s": run.wall_s, "skipped": int(run.state["skipped"]), "compile_s": compile_s,
           # the time cap was reached before the floor of steps: trained past it
-          "past_time_cap": bool(cfg.max_seconds and run.wall_s > cfg.max_seconds
-                                and start < step <= cfg.min_steps),
+          "past_time_cap": budget.past_time_cap(cfg, run.wall_s, start, step),
           "learned": collapse.verdict(run.log.training_psnr(run.name), constant_psnr,
                                       **cfg.collapse)}
 
@@ -265,11 +254,8 @@ def _info(run, start, step, compile_s, constant_psnr) -> dict:
 def _loop(run, step_fn, data, base_key, bar, start, cfg):
   """Steps until cfg.steps or cfg.max_seconds; returns the last step taken."""
   step, in_flight = start, None  # in_flight: the loss of the step before the current one
-  # The time cap stops a stage only after its floor of steps (min_steps), so
-  # that no stage of a method is left untrained on a slow machine.
-  floor = min(cfg.min_steps, cfg.steps)
-  for step in range(start + 1, progress.last_step(cfg) + 1):
-    if cfg.max_seconds and run.wall_s >= cfg.max_seconds and step > floor:
+  for step in range(start + 1, budget.last_step(cfg) + 1):
+    if budget.out_of_time(cfg, run.wall_s, step):
       step -= 1
       break
     if run.pacer is not None:

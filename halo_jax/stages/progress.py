@@ -1,10 +1,7 @@
 """The training loop's progress bar."""
 import tqdm
 
-
-def last_step(cfg) -> int:
-  """The step a stage's loop ends at: `steps`, or `stop_at_step` when set and sooner."""
-  return min(cfg.steps, cfg.stop_at_step or cfg.steps)
+from halo_jax.stages.budget import last_step
 
 
 class ProgressBar:

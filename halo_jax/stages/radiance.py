@@ -17,7 +17,7 @@ import jax
 from halo_jax import evaluate, geometry, lightfield, models, parallel, ray_fields, raycast
 from halo_jax import registry, samplers
 from halo_jax.rays import Batch
-from halo_jax.stages import base, batches, collapse, loop, microbatch, terms
+from halo_jax.stages import base, batches, budget, collapse, loop, microbatch, terms
 from halo_jax.stages.state import StageState, stage_dir
 from halo_jax.stages.transfer import transfer_from_lo
 from halo_jax.types import Config
@@ -245,7 +245,7 @@ def train(ctx: base.StageContext):
   pixels = batches.pixels_of(ds.train, cfg.precrop_frac, background)
   data = jax.device_put(terms.stage_data(ctx, cfg, pixels, active, guide_params))
   bank_s = time.perf_counter() - t0  # rendering Lo targets counts as training time
-  cfg = loop.minus_seconds(cfg, bank_s)
+  cfg = budget.minus_seconds(cfg, bank_s)
   settings = dataclasses.replace(settings, cfg=cfg)
   make_eval, eval_fn = _eval_closures(ctx, settings, guide_params)
   step_loss = functools.partial(loss_fn, s=settings)

@@ -10,7 +10,7 @@ import numpy as np
 
 from halo_jax import geometry, losses, models, parallel, ray_fields, raycast, registry, rng
 from halo_jax.rays import Rays, Targets
-from halo_jax.stages import base, lo_targets, loop, microbatch
+from halo_jax.stages import base, budget, lo_targets, loop, microbatch
 from halo_jax.stages.state import StageState
 
 TEACHER = "lo"  # the stage whose depth and opacity the ray field learns
@@ -110,7 +110,7 @@ def train(ctx: base.StageContext):
   step_loss = functools.partial(loss_fn, model=model, guide_geometry=ds.geometry, radius=radius,
                                 far=ds.far, n_train=cfg.batch_rays - n_random,
                                 n_random=n_random, mesh=ctx.mesh)
-  cfg = loop.minus_seconds(cfg, target_s)
+  cfg = budget.minus_seconds(cfg, target_s)
   params, step, info = loop.train(name, cfg, ctx.workdir, init_params(config, name, ds),
                                   step_loss, data, config.seed, None, ctx.log,
                                   ctx.wall_offset + target_s, ctx.mesh,

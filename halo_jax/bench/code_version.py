@@ -27,9 +27,9 @@ import os
 import subprocess
 import time
 
+from halo_jax.bench.paths import REPO
 from halo_jax import provenance
 
-REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 FILE = os.path.join(REPO, "results", "fingerprints.json")
 
 UNMEASURED = "unmeasured"   # the record's tree has no fingerprint for its method

@@ -12,8 +12,8 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # pylint: disable=g-import-not-at-top
 import numpy as np  # pylint: disable=g-import-not-at-top
 
-from experiments import code_version  # pylint: disable=g-import-not-at-top
-from experiments.report_common import (  # pylint: disable=g-import-not-at-top
+from halo_jax.bench import code_version  # pylint: disable=g-import-not-at-top
+from halo_jax.bench.report_common import (  # pylint: disable=g-import-not-at-top
     BASELINE, in_method_order, mean_pm)
 
 

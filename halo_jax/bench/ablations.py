@@ -1,0 +1,381 @@
+"""Ablation studies scored on validation views: which setting HALO should use.
+
+A study is a set of scenes, variants (a method plus config overrides) and
+seeds, run on the CPU suite's terms but at matched steps, and scored on views
+the suite never scores: D-NeRF's `val` frames, the built-in scenes' `val`
+cameras (datasets/procedural.py). Nothing here reads a test view.
+
+Matched steps: each stage stops (`stop_at_step`) at the mean step count
+the CPU suite's 240-s `halo` runs of the scene reached in that stage
+(MATCHED_STEPS, frozen from the suite's files), with every schedule still spanning the
+stage's `steps`, exactly as when the time cap stops it. So a study's runs
+do not depend on what else the machine is doing, and two run side by side.
+Each record keeps its training seconds, so a variant that makes steps
+dearer shows it.
+
+  python experiments/ablations.py --study=dnerf_hi [--only=REGEX] [--core=0|1]
+  python experiments/ablations.py --study=fog --dry_run
+  python experiments/ablations.py --study=fog --report_only
+
+Each finished run writes results/ablations/<study>/<scene>/<variant>/seed<k>.json
+(committed; a run whose file exists is skipped, a killed one resumes from
+--scratch), and the report docs/results/ablation_<study>.md: per scene and
+variant, the final stage's val PSNR (mean +- std over seeds), Lo-NeRF's val
+PSNR at the end of its stage, the steps each stage trained, and the
+difference from the study's reference variant.
+"""
+import dataclasses
+import os
+import statistics
+import sys
+import time
+import traceback
+
+from absl import flags, logging
+
+from halo_jax.bench import (benchmark, code_version, fronts_report, report_common, run_file,
+                            selection, suites, tool)
+from halo_jax.bench.paths import REPO
+from halo_jax.bench.studies import MATCHED_STEPS, STUDIES, Study, Variant  # noqa: F401
+from halo_jax import runs
+from halo_jax.configure import set_field
+
+FLAGS = flags.FLAGS
+
+
+def _terms(study: Study) -> suites.Suite:
+  """The CPU suite's budget, core count and curve settings, on the study's
+  scenes' validation views."""
+  return dataclasses.replace(suites.CPU, scenes=study.scenes,
+                             overrides=suites.CPU.overrides + suites.VALIDATION_VIEWS)
+
+
+def _plan(study: Study, only: str):
+  """[(scene, variant, seed), ...] filtered by the regex `only` (ValueError
+  when it is not one, or selects nothing)."""
+  runs = [(scene, v, seed) for seed in range(study.seeds) for scene in study.scenes
+          for v in study.variants]
+  return selection.select(runs, lambda r: f"{r[0].name}/{r[1].name}/seed{r[2]}", only,
+                          part="variant", plan="study")
+
+
+def result_path(results, study_name, scene, variant, seed):
+  return os.path.join(results, "ablations", study_name, scene.name, variant.name,
+                      f"seed{seed}.json")
+
+
+def matched_steps(results: str, scene: suites.Scene) -> dict:
+  """{stage: steps} a study's run of `scene` stops each stage at
+  (MATCHED_STEPS). `results` is unused; kept for the call sites."""
+  del results
+  if scene.name not in MATCHED_STEPS:
+    raise KeyError(f"no matched steps for scene {scene.name!r}: add it to "
+                   "halo_jax/bench/studies.py MATCHED_STEPS")
+  return dict(MATCHED_STEPS[scene.name])
+
+
+def configure(study: Study, scene: suites.Scene, variant: Variant, seed: int, scratch: str,
+              results: str):
+  c = benchmark.configure(_terms(study), scene, variant.method, seed, "time", scratch)
+  for field, value in variant.overrides:
+    set_field(c, field, value)
+  if study.budget == "time":
+    if not study.front:
+      c.eval.front_s = ()
+    return c
+  c.budget_s = 0.0
+  for n, steps in matched_steps(results, scene).items():
+    steps = max(steps, c[n].min_steps)  # a suite run that trained less than the floor
+    c[n].update(max_seconds=0.0, eval_every_s=0.0, stop_at_step=steps,
+                eval_every=max(1, steps // 2))
+  return c
+
+
+def run_one(study_name, study, scene, variant, seed, results, scratch) -> dict:
+  c = configure(study, scene, variant, seed, scratch, results)
+  workdir = os.path.join(scratch, "ablations", study_name, scene.name, variant.name,
+                         f"seed{seed}")
+  start = time.time()
+  record = runs.run_method(c, workdir)
+  record.pop("per_view", None)
+  if study.budget == "time" and study.front:
+    record["front"] = benchmark.front_points(workdir, record, with_lpips=False)
+  record.update(study=study_name, scene=scene.name, config=scene.config, variant=variant.name,
+                method=variant.method, overrides=[list(o) for o in variant.overrides],
+                split=c.data.test_split, seed=seed,
+                stop_at_step={n: c[n].stop_at_step for n in record["stages"]},
+                run_seconds=round(time.time() - start, 1))
+  run_file.write_json(result_path(results, study_name, scene, variant, seed), record)
+  return record
+
+
+def read_records(results, study_name):
+  """{(scene, variant): [record, ...]} of a study's finished runs."""
+  import json
+  root = os.path.join(results, "ablations", study_name)
+  out = {}
+  if not os.path.isdir(root):
+    return out
+  for dirpath, _, files in os.walk(root):
+    for f in sorted(files):
+      if f.endswith(".json"):
+        with open(os.path.join(dirpath, f)) as fh:
+          r = json.load(fh)
+        out.setdefault((r["scene"], r["variant"]), []).append(r)
+  return out
+
+
+def _mean_std(xs):
+  if not xs:
+    return ""
+  if len(xs) == 1:
+    return f"{xs[0]:.2f}"
+  return f"{statistics.mean(xs):.2f} ± {statistics.stdev(xs):.2f}"
+
+
+def _pairs(study: Study, recs, variant: str) -> list:
+  """[(record, reference record), ...]: `variant`'s runs beside the
+  reference's run of the same scene and seed, over every pair both ran."""
+  out = []
+  for scene in study.scenes:
+    ref = {r["seed"]: r for r in recs.get((scene.name, study.reference), [])}
+    out += [(r, ref[r["seed"]]) for r in recs.get((scene.name, variant), []) if r["seed"] in ref]
+  return out
+
+
+def _overall(study: Study, recs) -> list:
+  """Lines of a table: per variant, its difference from the reference over
+  every (scene, seed) both ran, and how many of those it lost."""
+  rows = []
+  for v in study.variants:
+    if v.name == study.reference:
+      continue
+    deltas = [r["psnr"] - ref["psnr"] for r, ref in _pairs(study, recs, v.name)]
+    if deltas:
+      rows.append(f"| `{v.name}` | {len(deltas)} | {statistics.mean(deltas):+.2f} | "
+                  f"{min(deltas):+.2f} | {sum(d < 0 for d in deltas)} |")
+  if not rows:
+    return []
+  return ["", "## Over all scenes and seeds", "",
+          f"Each variant against `{study.reference}` over the (scene, seed) pairs both ran.", "",
+          "| variant | pairs | mean Δ | worst Δ | pairs lost |", "|---|---|---|---|---|"] + rows
+
+
+# The rule a default's change must pass (docs/validation.md): measured on at
+# least MIN_SEEDS seeds of every scene of the kind it applies to, it may lose
+# no more than MAX_LOSS_DB (mean over seeds) on any of them.
+MIN_SEEDS, MAX_LOSS_DB = 2, 0.3
+
+
+def default_rule(study: Study, recs, variant: str) -> str:
+  """Whether `variant` may replace the reference as the default: 'passes',
+  'fails: <scenes and their mean Δ>' or 'not measured: <scenes short of
+  seeds>'."""
+  by_scene = {}
+  for r, ref in _pairs(study, recs, variant):
+    by_scene.setdefault(r["scene"], []).append(r["psnr"] - ref["psnr"])
+  short, losses = [], []
+  for scene in study.scenes:
+    deltas = by_scene.get(scene.name, [])
+    if len(deltas) < MIN_SEEDS:
+      short.append(scene.name)
+    elif statistics.mean(deltas) < -MAX_LOSS_DB:
+      losses.append(f"{scene.name} {statistics.mean(deltas):+.2f}")
+  if losses:
+    return "fails: " + ", ".join(losses)
+  if short:
+    return "not measured: " + ", ".join(short)
+  return "passes"
+
+
+def _rule_lines(study: Study, recs) -> list:
+  rows = [f"| `{v.name}` | {default_rule(study, recs, v.name)} |" for v in study.variants
+          if v.name != study.reference and v.method == study.variants[0].method]
+  if not rows:
+    return []
+  return ["", "## Against the default rule", "",
+          f"A variant may replace `{study.reference}` only if, on at least {MIN_SEEDS} seeds of "
+          f"every scene of the study, its mean loss on no scene exceeds {MAX_LOSS_DB} dB "
+          "(docs/validation.md).", "", "| variant | verdict |", "|---|---|"] + rows
+
+
+def _overall_fronts(study: Study, recs) -> list:
+  """Lines of a table for a time study: per variant, its mean difference
+  from the reference at each front time and at the end, over every (scene,
+  seed) both ran."""
+  times = sorted({p["at_s"] for rs in recs.values() for r in rs for p in r.get("front", [])
+                  if not p.get("final")})
+  rows = []
+  for v in study.variants:
+    if v.name == study.reference:
+      continue
+    deltas = {t: [] for t in times + [None]}
+    for r, ref in _pairs(study, recs, v.name):
+      for t in deltas:
+        ours, theirs = fronts_report.front_values([r], t), fronts_report.front_values([ref], t)
+        if ours and theirs:
+          deltas[t].append(ours[0] - theirs[0])
+    if deltas[None]:
+      rows.append(f"| `{v.name}` | {len(deltas[None])} | " + " | ".join(
+          f"{statistics.mean(d):+.2f}" if d else "-" for d in deltas.values()) + " |")
+  if not rows:
+    return []
+  head = ["variant", "pairs"] + [f"{t:g} s" for t in times] + ["end"]
+  return ["", f"Mean difference from `{study.reference}` at each saved time, validation views:",
+          "", "| " + " | ".join(head) + " |", "|" + "---|" * len(head)] + rows
+
+
+def _terms_text(study: Study) -> str:
+  if study.budget == "time":
+    return (f"CPU suite terms: {suites.CPU.budget_s:g} s of training on one core"
+            + (", each run's state saved at the suite's front times" if study.front else
+               ", scored at the end"))
+  return ("CPU suite terms at matched steps (each stage stops at the steps the suite's "
+          f"{suites.CPU.budget_s:g}-s `halo` runs of the scene reached, its schedules "
+          "unchanged)")
+
+
+def _variant_row(study: Study, v: Variant, rs, ref) -> str:
+  """One variant's row of a scene's table, from its records `rs` and the
+  reference variant's records by seed `ref`."""
+  final = [r["psnr"] for r in rs]
+  lo = [r["stages"]["lo"]["psnr"] for r in rs if "psnr" in r["stages"].get("lo", {})]
+  drop = [r["psnr"] - r["stages"]["lo"]["psnr"] for r in rs
+          if "psnr" in r["stages"].get("lo", {})]
+  delta = [r["psnr"] - ref[r["seed"]]["psnr"] for r in rs if r["seed"] in ref]
+  steps = f"{statistics.mean(r['wall_s'] for r in rs):.0f}"
+  return (f"| `{v.name}` | {len(rs)} | {_mean_std(final)} | {_mean_std(lo)} | "
+          f"{f'{statistics.mean(drop):+.2f}' if drop else ''} | "
+          f"{f'{statistics.mean(delta):+.2f}' if delta and v.name != study.reference else ''}"
+          f" | {steps} |")
+
+
+def report(study_name: str, study: Study, results: str) -> str:
+  """The study's page (markdown), from its result files."""
+  recs = read_records(results, study_name)
+  lines = [f"# Ablation: {study.title}", "",
+           f"Generated by `experiments/ablations.py --study={study_name} --report_only` from "
+           f"`results/ablations/{study_name}/`; do not edit.", "",
+           study.question, "",
+           _terms_text(study) + ", scored on validation views, never on the test views the "
+           "suite reports: D-NeRF's `val` frames, the built-in scenes' `val` cameras. "
+           "PSNR of the method's "
+           "output, mean ± std over seeds; `Lo` is Lo-NeRF's PSNR at the end of its stage on "
+           "the same views; `train s` the training seconds (mean; runs shared the machine); `Δ` the difference "
+           f"from `{study.reference}` over the seeds both have.", "",
+           "| variant | what it changes |", "|---|---|"]
+  for v in study.variants:
+    lines.append(f"| `{v.name}` | {v.note or ', '.join(f'{k}={x}' for k, x in v.overrides)} |")
+  for scene in study.scenes:
+    rows = [(v, recs.get((scene.name, v.name), [])) for v in study.variants]
+    if not any(r for _, r in rows):
+      continue
+    ref = {r["seed"]: r for r in recs.get((scene.name, study.reference), [])}
+    lines += ["", f"## {scene.name}", "",
+              "| variant | seeds | PSNR | Lo PSNR | final - Lo | Δ | train s |",
+              "|---|---|---|---|---|---|---|"]
+    for v, rs in rows:
+      if not rs:
+        lines.append(f"| `{v.name}` | 0 | | | | | |")
+        continue
+      lines.append(_variant_row(study, v, rs, ref))
+    if study.budget == "time" and study.front:
+      lines += ["", "Error against training time on every validation view (the run's state "
+                "saved at these seconds, scored after training):", "",
+                fronts_report.front_table({v.name: rs for v, rs in rows if rs})]
+    per_seed = sorted({r["seed"] for _, rs in rows for r in rs})
+    if len(per_seed) > 1:
+      lines += ["", "Per seed: " + "; ".join(
+          f"`{v.name}` " + ", ".join(f"s{r['seed']} {r['psnr']:.2f}"
+                                     for r in sorted(rs, key=lambda r: r["seed"]))
+          for v, rs in rows if rs) + "."]
+  lines += _overall(study, recs)
+  lines += _rule_lines(study, recs)
+  lines += [""] + report_common.collapse_lines(
+      [(f"{scene}/{variant}/seed{r['seed']}", r) for (scene, variant), rs in sorted(recs.items())
+       for r in rs])
+  if study.budget == "time" and study.front:
+    lines += _overall_fronts(study, recs)
+  commits = sorted({(r["provenance"].get("git") or {}).get("commit", "?")[:7]
+                    for rs in recs.values() for r in rs})
+  if commits:
+    lines += ["", f"Commits: {', '.join(commits)}."]
+  lines += _fingerprint_lines(study, recs)
+  return "\n".join(lines) + "\n"
+
+
+def _fingerprint_lines(study: Study, recs) -> list:
+  """Per variant, the code fingerprints of its method that its runs measure
+  (halo_jax/bench/code_version.py): a variant whose runs span two fingerprints,
+  or whose tree was modified or never measured, says so. A study's overrides
+  are not part of a fingerprint, so a change of a default the study sets
+  itself can mark its runs as different code without moving them."""
+  table = code_version.load()
+  rows = []
+  for v in study.variants:
+    rs = [r for (_, name), rr in sorted(recs.items()) if name == v.name for r in rr]
+    if rs:
+      rows.append(f"`{v.name}` {code_version.of_records(rs, table)}")
+  return ["", "Code fingerprints (per variant, of its method): " + "; ".join(rows) + "."] if rows \
+      else []
+
+
+def define_flags():
+  """This script's own flags; --only, --results, --scratch and --dry_run are
+  experiments/benchmark.py's (imported above), with the same meaning."""
+  flags.DEFINE_enum("study", "fog", sorted(STUDIES), "Study to run.")
+  flags.DEFINE_string("docs", os.path.join(REPO, "docs", "results"), "Report folder.")
+  flags.DEFINE_integer("core", -1, "Pin to this one core (-1: the machine's last).")
+  flags.DEFINE_bool("report_only", False, "Write the report from the result files only.")
+
+
+def main(argv):
+  del argv
+  logging.set_verbosity(logging.WARNING)
+  study = STUDIES[FLAGS.study]
+  if not FLAGS.report_only:
+    if hasattr(os, "sched_setaffinity"):
+      allowed = sorted(os.sched_getaffinity(0))
+      os.sched_setaffinity(0, [allowed[FLAGS.core]])
+    try:
+      todo = _plan(study, FLAGS.only)
+    except ValueError as e:
+      sys.exit(str(e))
+    failed = []
+    for scene, variant, seed in todo:
+      path = result_path(FLAGS.results, FLAGS.study, scene, variant, seed)
+      tag = f"{scene.name}/{variant.name}/seed{seed}"
+      state = benchmark._state(path, scene, _terms(study))  # pylint: disable=protected-access
+      if FLAGS.dry_run or state != "to run":
+        print(f"{state:8} {tag}", flush=True)
+        continue
+      try:
+        r = run_one(FLAGS.study, study, scene, variant, seed, FLAGS.results, FLAGS.scratch)
+      except Exception:  # pylint: disable=broad-except
+        traceback.print_exc()
+        print(f"FAILED   {tag}", flush=True)
+        failed.append(tag)
+        continue
+      lo = r["stages"].get("lo", {}).get("psnr")
+      print(f"ran      {tag}: {r['psnr']:.2f}" + (f" (Lo {lo:.2f})" if lo else "") +
+            "  steps " + ", ".join(f"{n} {s['step']}" for n, s in r["stages"].items()),
+            flush=True)
+    if failed:
+      sys.exit(f"{len(failed)} run(s) failed: {', '.join(failed)}")
+  if FLAGS.dry_run:
+    return
+  text = report(FLAGS.study, study, FLAGS.results)
+  os.makedirs(FLAGS.docs, exist_ok=True)
+  with open(os.path.join(FLAGS.docs, f"ablation_{FLAGS.study}.md"), "w") as f:
+    f.write(text)
+  print(text)
+
+
+def cli():
+  """The console script's entry point."""
+  define_flags()
+  tool.run(sys.modules[__name__], main)
+
+
+if __name__ == "__main__":
+  cli()

@@ -1,0 +1,236 @@
+"""Runs a benchmark suite (halo_jax/bench/suites.py): every scene x method x seed.
+
+  python experiments/benchmark.py --suite=cpu [--mode=time|steps] [--only=REGEX]
+  python experiments/benchmark.py --suite=cpu --dry_run      # the plan and what is done
+
+Mode 'time' gives every method the suite's training wall-clock (budget_s,
+split over a method's stages by config.budget_shares); mode 'steps' gives
+every method the suite's number of training steps, split the same way.
+Each finished run writes one small JSON file,
+  results/<suite>/<mode>/<scene>/<method>/seed<k>.json
+(per-view PSNR / SSIM / LPIPS, the held-out curve against seconds, steps,
+provenance; on scenes with a validation split, each stage's PSNR on all of
+its views, scored after training), which is committed: a run whose file
+exists is skipped, so a
+suite resumes across machines from the repository. A run killed part way
+resumes from its checkpoints in --scratch on the same machine. Runs go seed
+by seed (every scene and method at seed 0 first), so a partial suite covers
+every scene. experiments/report.py turns the files into docs/results/.
+"""
+import json
+import os
+import sys
+import time
+import traceback
+
+from absl import flags, logging
+
+from halo_jax.bench import run_file, selection, suites, tool
+from halo_jax.bench.paths import REPO
+from halo_jax import defaults, runs
+from halo_jax.configure import load as method_config, set_field
+
+FLAGS = flags.FLAGS
+flags.DEFINE_enum("suite", "cpu", sorted(suites.SUITES), "Suite to run.")
+flags.DEFINE_enum("mode", "time", ["time", "steps"], "Equal wall-clock or equal steps.")
+flags.DEFINE_string("results", os.path.join(REPO, "results"), "Result files' root.")
+flags.DEFINE_string("scratch", "/tmp/halo_bench", "Workdirs (checkpoints, renders).")
+flags.DEFINE_string("only", "", "Run only runs whose 'scene/method/seed<k>' matches this regex.")
+flags.DEFINE_integer("max_runs", 0, "Stop after this many runs (0: all).")
+flags.DEFINE_bool("dry_run", False, "Print the plan and each run's state; train nothing.")
+flags.DEFINE_bool("score_validation", False, "Train nothing: add the validation scores to "
+                  "finished runs' files that lack them, from their workdirs in --scratch.")
+flags.DEFINE_bool("add_fronts", False, "Rerun finished runs whose file has no front although "
+                  "the suite records one (files from before fronts); the new file replaces it.")
+flags.DEFINE_integer("first_core", -1, "With a suite pinned to k cores: the first of them "
+                     "(-1: the machine's last k), e.g. to run two suites side by side.")
+
+
+def data_root() -> str:
+  return defaults.data_root()
+
+
+def plan(suite: suites.Suite, only: str = ""):
+  """[(scene, method, seed), ...] seed-major, filtered by the regex `only`
+  (ValueError when it is not one, or selects nothing)."""
+  runs = [(scene, m, seed) for seed in range(max(s.seeds for s in suite.scenes))
+          for scene in suite.scenes if seed < scene.seeds for m in scene.methods]
+  return selection.select(runs, lambda r: f"{r[0].name}/{r[1]}/seed{r[2]}", only,
+                          part="method", plan="suite")
+
+
+def result_path(results, suite_name, mode, scene, method, seed):
+  return os.path.join(results, suite_name, mode, scene.name, method, f"seed{seed}.json")
+
+
+def configure(suite: suites.Suite, scene: suites.Scene, method: str, seed: int, mode: str,
+              scratch: str):
+  """The run's config: the scene's config as `method`, this seed and mode."""
+  from halo_jax import pipeline
+  c = method_config(scene.config, method)
+  c.seed = seed
+  if c.data.kind == "procedural" and not c.data.root:  # generated once, shared by runs
+    c.data.root = os.path.join(scratch, "scenes",
+                               f"{c.data.procedural_scene}_{c.data.procedural_size}")
+  c.eval.front_s = tuple(suite.front_s)
+  for field, value in suite.overrides + scene.overrides:
+    set_field(c, field, value)
+  names = pipeline.needed(c, c.final_stage)
+  shares = {n: c.budget_shares[n] for n in names}
+  total = sum(shares.values())
+  if mode == "time":
+    c.budget_s = suite.budget_s
+    for n in names:
+      c[n].eval_every_s = suite.budget_s / suite.curve_points
+  else:
+    c.budget_s = 0.0
+    for n in names:
+      c[n].steps = max(1, round(suite.steps * shares[n] / total))
+      c[n].max_seconds = 0.0
+      # the curve's points evenly spread over the method's steps
+      c[n].eval_every = max(1, int(suite.steps / suite.curve_points))
+  return c
+
+
+def workdir_of(scratch, suite_name, mode, scene, method, seed):
+  return os.path.join(scratch, suite_name, mode, scene.name, method, f"seed{seed}")
+
+
+def score_validation(workdir: str, record: dict, split: str) -> dict:
+  """Every stage of a finished run that renders (those with a held-out PSNR
+  in `record['stages']`) scored on all views of `split`, after training, so
+  it costs no training time: {'split', 'num_views', 'stages': {name: {'psnr',
+  'ssim'}}}. PSNR and SSIM as training's own evaluation scores them."""
+  from halo_jax.cli import evaluate as evaluation
+  stages, num_views = {}, 0
+  for name, stage in record["stages"].items():
+    if "psnr" not in stage:
+      continue
+    r = evaluation.run_evaluation(workdir, name, split, "all", with_lpips=False)
+    stages[name] = {k: r["float"][k] for k in ("psnr", "ssim")}
+    num_views = r["num_views"]
+  return {"split": split, "num_views": num_views, "stages": stages}
+
+
+def front_points(workdir: str, record: dict, with_lpips: bool) -> list:
+  """The run's error-against-time front on all its held-out views
+  (halo_jax/front.py), ending with its final state's scores."""
+  from halo_jax import front
+  last = list(record["stages"])[-1]
+  final = {"at_s": record["wall_s"], "wall_s": record["wall_s"], "stage": last,
+           "step": record["stages"][last]["step"], "final": True,
+           **{k: record[k] for k in ("psnr", "ssim", "lpips") if record.get(k) is not None}}
+  points = front.evaluate_front(workdir, with_lpips)
+  if not points:
+    raise RuntimeError(f"{workdir} has no snapshots to score: it was trained before the suite "
+                       "recorded fronts; remove it (or pass another --scratch) to rerun it")
+  return points + [final]
+
+
+def run_one(suite_name, suite, scene, method, seed, mode, results, scratch) -> dict:
+  """Trains one run (resuming its workdir), scores its stages on the scene's
+  validation split if it has one, and writes its result file."""
+  c = configure(suite, scene, method, seed, mode, scratch)
+  workdir = workdir_of(scratch, suite_name, mode, scene, method, seed)
+  start = time.time()
+  record = runs.run_method(c, workdir)
+  if c.eval.front_s:
+    record["front"] = front_points(workdir, record, c.eval.lpips)
+  if scene.validation:
+    record["validation"] = score_validation(workdir, record, scene.validation)
+  record.update(suite=suite_name, scene=scene.name, config=scene.config, method=method,
+                scene_overrides=[list(o) for o in scene.overrides],
+                seed=seed, mode=mode, budget_s=c.budget_s,
+                target_steps=suite.steps if mode == "steps" else None,
+                run_seconds=round(time.time() - start, 1))
+  path = result_path(results, suite_name, mode, scene, method, seed)
+  run_file.write_json(path, record)
+  return record
+
+
+def add_validation(suite_name, scene, method, seed, mode, results, scratch) -> str:
+  """Adds the validation scores to a finished run's file that lacks them,
+  from its workdir; returns what it did, in a word or two."""
+  path = result_path(results, suite_name, mode, scene, method, seed)
+  if not scene.validation or not os.path.exists(path):
+    return "nothing"
+  with open(path) as f:
+    record = json.load(f)
+  if "validation" in record:
+    return "has it"
+  workdir = workdir_of(scratch, suite_name, mode, scene, method, seed)
+  if not os.path.isdir(workdir):
+    return "no workdir"
+  record["validation"] = score_validation(workdir, record, scene.validation)
+  run_file.write_json(path, record)
+  return "scored"
+
+
+def _state(path, scene, suite, add_fronts=False):
+  if os.path.exists(path):
+    if add_fronts and suite.front_s:
+      with open(path) as f:
+        if not json.load(f).get("front"):
+          return "no front" if _has_data(scene) else "no data"
+    return "done"
+  return "to run" if _has_data(scene) else "no data"
+
+
+def _has_data(scene) -> bool:
+  return not scene.needs or os.path.isdir(os.path.join(data_root(), scene.needs))
+
+
+def main(argv):
+  del argv
+  logging.set_verbosity(logging.WARNING)
+  suite = suites.SUITES[FLAGS.suite]
+  if suite.cores and hasattr(os, "sched_setaffinity"):
+    # Before JAX starts its thread pool: the same cores for every run.
+    allowed = sorted(os.sched_getaffinity(0))
+    first = FLAGS.first_core if FLAGS.first_core >= 0 else len(allowed) - suite.cores
+    cores = allowed[first:first + suite.cores]
+    os.sched_setaffinity(0, cores)
+  try:
+    todo = plan(suite, FLAGS.only)
+  except ValueError as e:
+    sys.exit(str(e))
+  if FLAGS.score_validation:
+    for scene, method, seed in todo:
+      what = add_validation(FLAGS.suite, scene, method, seed, FLAGS.mode, FLAGS.results,
+                            FLAGS.scratch)
+      print(f"{what:10} {scene.name}/{method}/seed{seed}", flush=True)
+    return
+  done, failed = 0, []
+  for scene, method, seed in todo:
+    path = result_path(FLAGS.results, FLAGS.suite, FLAGS.mode, scene, method, seed)
+    state = _state(path, scene, suite, FLAGS.add_fronts)
+    tag = f"{scene.name}/{method}/seed{seed}"
+    if FLAGS.dry_run or state not in ("to run", "no front"):
+      print(f"{state:8} {tag}", flush=True)
+      continue
+    if FLAGS.max_runs and done >= FLAGS.max_runs:
+      break
+    try:
+      r = run_one(FLAGS.suite, suite, scene, method, seed, FLAGS.mode, FLAGS.results,
+                  FLAGS.scratch)
+    except Exception:  # pylint: disable=broad-except
+      # One broken run does not stop the suite; the suite's exit status says so.
+      traceback.print_exc()
+      print(f"FAILED   {tag}", flush=True)
+      failed.append(tag)
+      continue
+    done += 1
+    print(f"ran      {tag}: PSNR {r['psnr']:.2f}  SSIM {r['ssim']:.3f}  LPIPS "
+          f"{r['lpips'] if r['lpips'] is None else round(r['lpips'], 3)}  "
+          f"{r['wall_s']:.0f} s training, {r['run_seconds']:.0f} s in all", flush=True)
+  if failed:
+    sys.exit(f"{len(failed)} run(s) failed: {', '.join(failed)}")
+
+
+def cli():
+  """The console script's entry point."""
+  tool.run(sys.modules[__name__], main)
+
+
+if __name__ == "__main__":
+  cli()
