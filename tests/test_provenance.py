@@ -1,4 +1,5 @@
 """Provenance: what every info.json and result record says about where it came from."""
+import os
 import subprocess
 import sys
 
@@ -16,7 +17,10 @@ def test_fields_and_values_checked_against_independent_sources():
   assert 1 <= p["cpu"]["cores_used"] <= p["cpu"]["cores_total"]
   assert p["cpu"]["model"]
   assert p["matmul_peak_gflops"] > 0
-  assert "pytest" in p["command"] or "py.test" in p["command"]
+  # the command line this process was started with: pytest's, or, in a
+  # pytest-xdist worker, the interpreter's `-c` that execnet starts it with
+  launched = "-c" if "PYTEST_XDIST_WORKER" in os.environ else "pytest"
+  assert launched in p["command"] or "py.test" in p["command"]
   repo = provenance._REPO  # pylint: disable=protected-access
   head = subprocess.run(["git", "-C", repo, "rev-parse", "HEAD"], capture_output=True,
                         text=True)
