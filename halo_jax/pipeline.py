@@ -20,9 +20,8 @@ from halo_jax.stages.state import load, save, stage_dir
 from halo_jax.stages.workdir import check_workdir
 
 
-def with_budget(config):
-  """A copy of config with its stages' shares of the budget (budget.split)."""
-  return budget.split(config)
+# a copy of config with its stages' shares of the budget
+with_budget = budget.split
 
 
 def _info_path(workdir, name):

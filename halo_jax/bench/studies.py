@@ -49,6 +49,9 @@ def _hi_lr(lr):
   return (("hi.lr_init", lr), ("hi.lr_final", lr / 10))
 
 
+# the suite's baseline beside a study's variants
+BASELINE = Variant("nerf_tuned", "nerf_tuned", note="the baseline, as in the suite")
+
 _DNERF = tuple(s for s in suites.CPU.scenes if s.name.startswith("dnerf_"))
 _PROCEDURAL = tuple(s for s in suites.CPU.scenes if s.name in ("spheres", "lattice"))
 
@@ -91,7 +94,7 @@ STUDIES = {
                                           ("lo.fg_fraction", 0.5)),
                     "half of each batch of Lo's first 200 steps from the pixels that are not "
                     "the white background, the rest from all pixels"),
-            Variant("nerf_tuned", "nerf_tuned", note="the baseline, as in the suite"),
+            BASELINE,
         ),
         reference="halo", seeds=2),
     "dnerf_hi_crop": Study(
@@ -106,7 +109,7 @@ STUDIES = {
                     "Hi on the centre crop for its first 200 steps (Lo's)"),
             Variant("hi_no_crop", "halo", (("hi.precrop_steps", 0),),
                     "Hi on whole images from the copy on"),
-            Variant("nerf_tuned", "nerf_tuned", note="the baseline, as in the suite"),
+            BASELINE,
         ),
         reference="halo", seeds=2),
     "fog": Study(
@@ -130,7 +133,7 @@ STUDIES = {
             Variant("no_precrop+density_bias_-4", "halo",
                     (("lo.precrop_steps", 0),) + _both("model.density_bias", -4.0),
                     "no centre crop for Lo, and the empty start"),
-            Variant("nerf_tuned", "nerf_tuned", note="the baseline, as in the suite"),
+            BASELINE,
             Variant("nerf_tuned+density_bias_-4", "nerf_tuned",
                     (("hi.model.density_bias", -4.0),),
                     "the baseline started at softplus(raw - 4): does the start help it too?"),
@@ -234,7 +237,7 @@ STUDIES = {
                     "(u, v) frequency halved"),
             Variant("uv_std_0.34", "halo", (("hi.joint.uv_std", 0.34),),
                     "(u, v) frequency doubled"),
-            Variant("nerf_tuned", "nerf_tuned", note="the baseline, as in the suite"),
+            BASELINE,
         ),
         reference="halo", seeds=2),
     "authors_light_field": Study(
@@ -250,7 +253,7 @@ STUDIES = {
         variants=(
             Variant("halo", "halo", note="ours (the CPU config)"),
             Variant("halo_authors", "halo_authors", note="the authors' recipe at CPU size"),
-            Variant("nerf_tuned", "nerf_tuned", note="the baseline, as in the suite"),
+            BASELINE,
         ),
         reference="halo", seeds=2, budget="time", front=False),
     "authors_static": Study(
@@ -287,7 +290,7 @@ STUDIES = {
             Variant("hi_lr_1e-3", "halo", _hi_lr(1e-3), "Hi at half the CPU rate"),
             Variant("hi_lr_5e-4", "halo", _hi_lr(5e-4),
                     "Hi at a quarter of the CPU rate (the paper's, as on dynamic scenes)"),
-            Variant("nerf_tuned", "nerf_tuned", note="the baseline, as in the suite"),
+            BASELINE,
             Variant("bf16", "halo", _both("model.compute_dtype", "bfloat16"),
                     "Lo's and Hi's layers with bfloat16 operands (study bf16)"),
             Variant("nerf_tuned_bf16", "nerf_tuned", (("hi.model.compute_dtype", "bfloat16"),),
