@@ -48,7 +48,7 @@ def get_config(arg: str = "knights"):
   # is free to wander (docs/scene_kinds.md).
   hi.joint.update(std=5.09, uv_std=0.17)
   if cpu:
-    c.budget_s = CPU_BUDGET_S
+    c.protocol, c.budget_s = "budget", CPU_BUDGET_S
     c.eval.update(chunk=8192, block_rays=256)  # cache-sized work: see defaults.cpu_sized
     hi.microbatches = 4
     hi.model.update(width=128, depth=4, skips=())

@@ -20,7 +20,7 @@ REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 TINY = ["--config.lo.steps=3", "--config.lo.model.width=16", "--config.lo.model.depth=2",
         "--config.lo.batch_rays=64", "--config.lo.microbatches=1",
         "--config.lo.sampler.num_samples=8", "--config.data.test_views=r_0",
-        "--config.budget_s=0", "--config.eval.lpips=False", "--config.lo.log_every=1"]
+        "--config.protocol=steps", "--config.budget_s=0", "--config.eval.lpips=False", "--config.lo.log_every=1"]
 
 
 def main_cmd(wd, *args, config="configs/default.py", stages="lo"):
@@ -232,7 +232,7 @@ from halo_jax.configs import default
 c = default.get_config()
 c.data.root = sys.argv[4]  # generated beforehand: two processes must not write one scene
 c.stages = "lo"
-c.budget_s = 0.0
+c.protocol, c.budget_s = "steps", 0.0
 c.lo.update(steps=100000, batch_rays=64, microbatches=1, log_every=10)
 c.lo.model.update(width=16, depth=2)
 c.lo.sampler.num_samples = 8

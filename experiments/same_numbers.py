@@ -49,7 +49,7 @@ os.environ["XLA_FLAGS"] = (os.environ.get("XLA_FLAGS", "")
 from absl import app, flags  # noqa: E402
 
 import halo_jax  # noqa: E402
-from halo_jax import datasets, defaults, pipeline, provenance, runs  # noqa: E402
+from halo_jax import datasets, defaults, pipeline, protocol, provenance, runs  # noqa: E402
 
 # This copy also runs in worktrees of older commits (--commit), whose suites
 # are experiments/suites.py and which have no fingerprints to record.
@@ -104,17 +104,15 @@ def scene_list():
 
 def step_capped(config, steps):
   """config trained for `steps` steps a stage, every step logged, no budget."""
-  c = copy.deepcopy(config)
-  c.budget_s = 0.0
+  c = protocol.steps(copy.deepcopy(config))
   c.tune.lo_steps = steps
   c.eval.lpips = False
   c.eval.save_images = False
   c.eval.curve_views = 1
   c.eval.flicker_frames = 3  # dynamic scenes' flicker video (its least): not compared here
   for name in ("lo", "ray", "hi"):
-    c[name].update(steps=steps, min_steps=0, log_every=1, eval_every=0, eval_every_s=0.0,
+    c[name].update(steps=steps, min_steps=0, log_every=1, eval_every=0,
                    checkpoint_every=10 * steps)
-    c[name].max_seconds = 0.0
   return c
 
 

@@ -15,7 +15,7 @@ flags (halo_jax/cli/__init__.py: config_of_flags).
 import importlib.util
 import os
 
-from halo_jax import config_files, methods
+from halo_jax import config_files, methods, protocol
 
 
 def load_scene(spec: str):
@@ -34,11 +34,12 @@ def load_scene(spec: str):
 
 def as_method(scene, method: str, overrides=None):
   """A copy of the scene config `scene` made into `method`, then `overrides`
-  ({dotted field: value}) set."""
+  ({dotted field: value}) set, then its protocol's step counts fixed
+  (halo_jax/protocol.py: what a printed or recorded config shows)."""
   c = methods.apply(scene, method)   # a copy
   for field, value in (overrides or {}).items():
     set_field(c, field, value)
-  return c
+  return protocol.resolve(c)
 
 
 def load(spec: str, method: str, overrides=None):

@@ -46,11 +46,12 @@ def _train(steps, batch_rays, lr_init, lr_final):
       # > 0: lr_init * (lr_final / lr_init) ** (step / lr_decay_steps), a
       # schedule that does not depend on the step cap (the original NeRF's)
       lr_decay_steps=0,
-      max_seconds=0.0,        # stop a stage after this much training time (0: no cap)
-      # ... but not before this many steps: a stage whose time share a slow
-      # machine spends elsewhere (e.g. rendering targets) still trains. The
-      # pipeline takes the overrun from the later stages' shares.
-      min_steps=0,
+      # seconds this stage may train, made a step count after timing its first
+      # steps here (stages/budget.py; 0: none; a budget sets it for untabled sizes)
+      max_seconds=0.0,
+      min_steps=0,  # the fewest steps a budget gives the stage; later shares pay
+      # set by the protocol (halo_jax/protocol.py), never by hand
+      budget_steps=0, ref_step_s=0.0, ref_setup_s=0.0, ref_offset_s=0.0,
       # stop after this step, as a time cap would, with every schedule (the
       # learning rate's, FreeNeRF's mask) still spanning `steps` (0: at `steps`)
       stop_at_step=0,
@@ -320,10 +321,9 @@ def base_config() -> ml_collections.ConfigDict:
   # a method (halo_jax.methods) sets its own stages, samplers and terms.
   c.stages = "hi"
   c.final_stage = "hi"        # the stage whose field the method outputs
-  # Training-time budget in seconds for the whole pipeline (0: none). When set,
-  # each needed stage gets max_seconds = budget_s * its share (normalised over
-  # the stages the run needs), so NeRF (hi alone) and HALO get the same time.
-  c.budget_s = 0.0
+  # 'paper', 'steps' or 'budget' (budget_s reference seconds: halo_jax/protocol.py);
+  # step_table: '' for the shipped halo_jax/step_table.json
+  c.protocol, c.budget_s, c.step_table = "paper", 0.0, ""
   c.budget_shares = ml_collections.ConfigDict(dict(lo=0.25, ray=0.10, hi=0.65))
   c.data = _data()
   c.lo = _radiance_stage(L=5, scale=32, use_viewdirs=False, steps=8000, num_samples=128,
@@ -349,7 +349,8 @@ def base_config() -> ml_collections.ConfigDict:
 
 
 def cpu_sized(c: ml_collections.ConfigDict, budget_s: float) -> ml_collections.ConfigDict:
-  """Shrinks a config to fit `budget_s` seconds of training on 2 CPU cores.
+  """Shrinks a config to fit `budget_s` reference seconds of training on one
+  CPU core ('budget' protocol: halo_jax/protocol.py).
 
   The HALO stages share the budget as `budget_shares` says. The choices were
   measured on lego 8-view at 100x100 (docs/notes/2026-11-22-lego-cpu.md):
@@ -366,7 +367,7 @@ def cpu_sized(c: ml_collections.ConfigDict, budget_s: float) -> ml_collections.C
   Steps are caps that the time budget normally reaches first; the learning
   rate decays over them.
   """
-  c.budget_s = budget_s
+  c.protocol, c.budget_s = "budget", float(budget_s)
   c.budget_shares.update(lo=0.30, ray=0.07, hi=0.63)
   c.eval.chunk = 8192
   # Cache-sized work on CPU (experiments/throughput.py): training steps in

@@ -8,20 +8,17 @@ not in the list is restored from the workdir, where an earlier launch left
 it. Nothing here branches on a model, sampler, method or data kind.
 """
 import contextlib
+import copy
 import json
 import os
 
-from halo_jax import datasets, parallel, provenance, stages, validate
+from halo_jax import datasets, parallel, protocol, provenance, stages, validate
 from halo_jax.frequency import tuning
 from halo_jax import workdir_lock
 from halo_jax.stages import base, budget, collapse, metrics_log
 from halo_jax.stages.order import needed, parse_stages, stage_names
 from halo_jax.stages.state import load, save, stage_dir
 from halo_jax.stages.workdir import check_workdir
-
-
-# a copy of config with its stages' shares of the budget
-with_budget = budget.split
 
 
 def _info_path(workdir, name):
@@ -54,6 +51,7 @@ def run(config, workdir: str, dataset=None, pacer=None) -> dict:
   evaluation. A stage that collapsed is saved and raises collapse.Collapsed.
   """
   validate.validate(config)
+  config = protocol.resolve(copy.deepcopy(config))  # as configure resolved it, or anew
   # In a multi-process job the processes share the workdir; process 0 holds it.
   held = workdir_lock.hold(workdir) if parallel.is_primary() else contextlib.nullcontext()
   with held:
@@ -62,7 +60,6 @@ def run(config, workdir: str, dataset=None, pacer=None) -> dict:
 
 def _run(config, workdir, dataset, pacer):
   check_workdir(config, workdir)
-  config = with_budget(config)
   dataset = dataset or datasets.load(config.data, workdir)
   run_now = parse_stages(config.stages, config)
   if config.lo.encoding.auto and "lo" in needed(config):
@@ -71,17 +68,21 @@ def _run(config, workdir, dataset, pacer):
         config, workdir, dataset, run)
   log = metrics_log.MetricsLog(workdir)
   mesh = parallel.make_mesh(config.parallel)
-  states, infos, wall = {}, {}, 0.0
-  until = budget.cumulative(config)
+  # wall: this machine's training seconds; spent: the method's reference
+  # seconds (halo_jax/protocol.py), which place the next stage's front points
+  states, infos, wall, spent = {}, {}, 0.0, 0.0
+  until = budget.shares_until(config) if config.protocol == "budget" else {}
   for name in needed(config):
     if name not in run_now:
       states[name], info = _restore(config, name, dataset, workdir)
       wall += info["wall_s"]
+      spent = info.get("reference_end_s", spent + info["wall_s"])
       continue
-    budget.start_stage(config, name, until, wall)
-    ctx = base.StageContext(config, name, dataset, workdir, dict(states), log, wall, mesh, pacer)
+    budget.start_measured(config, name, until, spent)
+    ctx = base.StageContext(config, name, dataset, workdir, dict(states), log, spent, mesh, pacer)
     state, info = base.trainer_of(config, name).train(ctx)
     wall += info["wall_s"]
+    spent = info["reference_end_s"]
     info.update(step=int(state.step), cumulative_wall_s=wall)
     save(workdir, state)
     if parallel.is_primary():
@@ -112,4 +113,4 @@ def table(infos) -> str:
   return "\n".join(lines)
 
 
-__all__ = ["needed", "parse_stages", "run", "stage_names", "table", "with_budget", "stages"]
+__all__ = ["needed", "parse_stages", "run", "stage_names", "table", "stages"]

@@ -5,10 +5,11 @@ halo_jax/bench/benchmark.py: the record
 holds the held-out metrics (mean and per view), the held-out PSNR curve
 against training seconds, each stage's steps and seconds, and provenance.
 """
+import copy
 import json
 import os
 
-from halo_jax import pipeline, provenance
+from halo_jax import pipeline, protocol, provenance
 from halo_jax.stages import collapse
 
 
@@ -46,13 +47,18 @@ def run_method(config, workdir, dataset=None) -> dict:
           **({"flicker": last["flicker"]} if "flicker" in last else {}),
           "num_views": last["num_views"], "per_view": rounded,
           "wall_s": sum(i["wall_s"] for i in infos.values()),
+          # the method's reference seconds at its end (halo_jax/protocol.py): under a
+          # budget the same on any machine, beside this machine's wall_s
+          "reference_s": max(i.get("reference_end_s", 0.0) for i in infos.values()),
+          "protocol": protocol.summary(protocol.resolve(copy.deepcopy(config))),
           "stages": {n: {"wall_s": i["wall_s"], "step": i["step"],
                          # what a time-budgeted run's step count rests on: a change of
                          # speed shows here, not in the code's fingerprint
                          "steps_per_s": round(i["step"] / i["wall_s"], 3) if i["wall_s"] else None,
                          "skipped": i.get("skipped", 0),
-                         **{k: i[k] for k in ("past_time_cap", "target_s", "target_rays")
-                            if k in i},
+                         **{k: i[k] for k in ("past_time_cap", "target_s", "target_rays",
+                                              "setup_s", "reference_end_s", "fixed_steps",
+                                              "measured_step_s") if k in i},
                          **({"psnr": i["eval"]["psnr"]} if "eval" in i else {})}
                      for n, i in infos.items()},
           "learned": {n: i["learned"]["verdict"] for n, i in infos.items() if "learned" in i},

@@ -6,7 +6,7 @@ declaration (its ray geometry, whether frames carry times), not the data.
 """
 import math
 
-from halo_jax import datasets, geometry, models, samplers, trig
+from halo_jax import datasets, geometry, models, protocol, samplers, trig
 from halo_jax.frequency import view_pairs
 from halo_jax.registry import ConfigError, check
 from halo_jax.stages import base, order
@@ -77,14 +77,8 @@ def _check_model(cfg, name):
 
 
 def _check_budget(config, names):
-  check(config.budget_s >= 0, f"budget_s={config.budget_s!r}: must be >= 0")
-  if config.budget_s > 0:
-    shares = {n: config.budget_shares.get(n, None) for n in names}
-    missing = [n for n, v in shares.items() if v is None]
-    check(not missing, f"budget_shares has no share for stage(s) {missing}")
-    check(all(v >= 0 for v in shares.values()) and sum(shares.values()) > 0,
-          f"budget_shares {shares}: shares must be >= 0 and sum to more than 0 over the "
-          f"stages {list(names)}")
+  del names  # the protocol's own check reads the stages the run needs
+  protocol.check(config)
 
 
 def _check_front(config):

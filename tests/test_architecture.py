@@ -17,11 +17,12 @@ PACKAGE = pathlib.Path(__file__).resolve().parent.parent / "halo_jax"
 LAYERS = (
     {"registry", "types", "geometry", "rays", "trig", "encoding", "camera", "rng", "samplers", "render", "raycast",
      "losses", "metrics", "lightfield", "frequency", "frequency.spectrum", "plots", "provenance", "visibility",
-     "tensorboard", "video", "image_files", "config_files", "tables"},
+     "tensorboard", "video", "image_files", "config_files", "tables", "step_table"},
     {"models", "ray_fields", "datasets", "checkpoint", "parallel", "evaluate", "defaults",
      "camera_paths", "frequency.view_pairs",
      "workdir_lock"},
     {"stages", "frequency.tuning", "validate", "methods", "configure", "pipeline", "user_errors",
+     "protocol",
      "restore", "runs", "frequency.calibration", "front", "viewer"},
     {"cli", "integrations", "bench"},
 )

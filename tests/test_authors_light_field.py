@@ -249,7 +249,7 @@ def test_select_best_keeps_the_parameters_that_scored_best(tmp_path):
       "data.procedural_size": 32, "data.test_views": "r_0,r_100", "data.select_views": "every:25",
       "hi.steps": 12, "hi.eval_every": 5, "hi.select_best": True, "hi.model.width": 32,
       "hi.batch_rays": 128, "hi.sampler.num_samples": 8, "baseline.num_samples": 8,
-      "budget_s": 0.0, "eval.curve_views": 1})
+      "protocol": "steps", "budget_s": 0.0, "eval.curve_views": 1})
   pipeline.run(c, str(tmp_path))
   import json
   with open(tmp_path / "metrics.jsonl") as f:

@@ -34,8 +34,9 @@ def test_modes_split_budget_and_steps_by_share(method, tmp_path):
   scene = suites.SMOKE.scenes[0]
   timed = benchmark.configure(suites.CPU, scene, method, 1, "time", str(tmp_path))
   assert timed.seed == 1 and timed.budget_s == suites.CPU.budget_s
+  assert timed.protocol == "budget"
   stepped = benchmark.configure(suites.CPU, scene, method, 1, "steps", str(tmp_path))
-  assert stepped.budget_s == 0
+  assert stepped.budget_s == 0 and stepped.protocol == "steps"
   names = ["hi"] if method == "nerf_tuned" else ["lo", "ray", "hi"]
   total = sum(stepped.budget_shares[n] for n in names)
   for n in names:

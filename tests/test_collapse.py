@@ -97,7 +97,7 @@ def test_the_command_line_stops_with_one_line(tmp_path):
   cmd = [sys.executable, "-m", "halo_jax.cli.train", "--config=configs/default.py",
          f"--workdir={wd}", "--config.stages=lo", "--config.lo.model.density_bias=-30",
          "--config.lo.steps=16", "--config.lo.log_every=1", "--config.lo.collapse.after_steps=10",
-         "--config.lo.min_steps=0", "--config.budget_s=0", "--config.lo.eval_every_s=0",
+         "--config.lo.min_steps=0", "--config.protocol=steps", "--config.budget_s=0", "--config.lo.eval_every_s=0",
          "--config.data.procedural_size=32", "--config.lo.batch_rays=512",
          "--config.lo.microbatches=1", "--config.lo.sampler.num_samples=8",
          "--config.eval.lpips=False", "--config.data.test_views=r_0"]

@@ -112,7 +112,7 @@ def test_table_shows_a_dash_for_metrics_a_stage_does_not_have():
 # A Lo-NeRF small enough that a launch spends its time compiling, not training.
 TINY_LO = ["--config.lo.model.width=16", "--config.lo.model.depth=2", "--config.lo.batch_rays=64",
            "--config.lo.microbatches=1", "--config.lo.sampler.num_samples=8",
-           "--config.data.test_views=r_0", "--config.budget_s=0", "--config.eval.lpips=False"]
+           "--config.data.test_views=r_0", "--config.protocol=steps", "--config.budget_s=0", "--config.eval.lpips=False"]
 
 HOLD = ("import sys, time; from halo_jax import workdir_lock\n"
         "with workdir_lock.hold(sys.argv[1]):\n  print('held', flush=True); time.sleep(600)\n")

@@ -104,7 +104,7 @@ def test_sweep_cli_two_points(scene_root, tmp_path):
          f"--config.data.root={scene_root}", "--config.stages=lo", "--config.lo.steps=3",
          "--config.lo.model.width=16", "--config.lo.model.depth=2", "--config.lo.batch_rays=64",
          "--config.lo.sampler.num_samples=8", "--config.data.factor=2",
-         "--config.data.test_views=r_0", "--config.budget_s=0", "--config.tune.num_pairs=2",
+         "--config.data.test_views=r_0", "--config.protocol=steps", "--config.budget_s=0", "--config.tune.num_pairs=2",
          "--sweep=lo.encoding.L=3,6", "--sweep=lo.encoding.scale=8"]
   res = subprocess.run(cmd, cwd=REPO, capture_output=True, text=True, timeout=300)
   assert res.returncode == 0, res.stderr[-3000:]

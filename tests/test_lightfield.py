@@ -96,7 +96,7 @@ def lf_config(root):
   c = configure.as_method(cfg_lf.get_config("scene_cpu"), "halo")
   c.data.update(root=root, train_views="00_00,00_04,04_00,04_04", test_views="02_02,01_03",
                 disparity_px=(-1.0, 1.0), grid_signs=(1.0, 1.0))
-  c.budget_s = 0.0
+  c.protocol, c.budget_s = "steps", 0.0
   c.eval.update(chunk=256, curve_views=1, lpips=False)
   c.hi.model.update(width=16, depth=2)
   c.hi.joint.model.update(width=16, depth=2)

@@ -81,64 +81,6 @@ def test_missing_earlier_stage_is_a_clear_error(config, scene_root, tmp_path):
     pipeline.run(config, str(tmp_path / "empty"))
 
 
-def test_budget_splits_by_share(config):
-  config.budget_s = 100.0
-  c = pipeline.with_budget(config)
-  np.testing.assert_allclose([c.lo.max_seconds, c.ray.max_seconds, c.hi.max_seconds],
-                             [25.0, 10.0, 65.0])
-  config.stages = "lo"
-  assert pipeline.with_budget(config).lo.max_seconds == 25.0  # hi still needs lo's share
-
-
-@pytest.mark.slow
-def test_stages_that_stop_early_leave_their_time_to_the_next(config, scene_root, tmp_path):
-  # Lo and the ray field stop at 2 steps, inside their shares of the budget
-  # (compile time included: 4.5 s and 6 s on a 2-core machine without
-  # AVX-512); Hi, capped only by time, gets what they leave, so the method
-  # trains for the whole budget.
-  config.data.root = scene_root
-  config.eval.lpips = False
-  budget = 32.0
-  config.budget_s = budget
-  # shares wide enough for lo's and the ray field's compiles on a slow machine
-  config.budget_shares.update(lo=0.3, ray=0.3, hi=0.4)
-  for name, steps in (("lo", 2), ("ray", 2), ("hi", 10 ** 6)):
-    config[name].update(steps=steps, checkpoint_every=10 ** 6, log_every=10 ** 6,
-                        eval_every=0)
-  total = sum(config.budget_shares[n] for n in ("lo", "ray", "hi"))
-  share = {n: budget * config.budget_shares[n] / total for n in ("lo", "ray", "hi")}
-  infos = pipeline.run(config, str(tmp_path / "run"))
-  for name in ("lo", "ray"):
-    assert infos[name]["step"] == 2 and infos[name]["wall_s"] < share[name]
-  used = infos["lo"]["wall_s"] + infos["ray"]["wall_s"]
-  # Hi trains until the budget is spent: its own share plus what they left.
-  assert infos["hi"]["wall_s"] > share["hi"] + 0.8 * (share["lo"] + share["ray"] - used)
-  assert budget - 0.5 < infos["hi"]["cumulative_wall_s"] < budget + 1.0
-
-
-@pytest.mark.slow
-def test_a_stage_out_of_time_still_trains_its_floor_and_the_next_pays_for_it(
-    config, scene_root, tmp_path):
-  # The ray field's share is far too small for any step, as on a slow machine
-  # where rendering its targets eats the share; min_steps still trains it, the
-  # record says it ran past its cap, and Hi's time shrinks so that the method
-  # keeps to its budget.
-  config.data.root = scene_root
-  config.eval.lpips = False
-  budget = 24.0
-  config.budget_s = budget
-  config.budget_shares.update(lo=0.45, ray=0.0001, hi=0.55)
-  config.ray.update(min_steps=5, target_rays=200)
-  for name in ("lo", "ray", "hi"):
-    config[name].update(steps=10 ** 6, checkpoint_every=10 ** 6, log_every=10 ** 6,
-                        eval_every=0)
-  infos = pipeline.run(config, str(tmp_path / "run"))
-  assert infos["ray"]["step"] == 5 and infos["ray"]["past_time_cap"]
-  assert infos["ray"]["target_rays"] == 200
-  assert not infos["hi"]["past_time_cap"]
-  assert budget - 0.5 < infos["hi"]["cumulative_wall_s"] < budget + 1.0
-
-
 def test_min_steps_and_target_rays_are_validated(config):
   config.ray.min_steps = -1
   with pytest.raises(registry.ConfigError, match="ray.min_steps=-1"):
@@ -184,7 +126,7 @@ def test_cli_runs_one_stage(scene_root, tmp_path):
          f"--config.data.root={scene_root}", "--config.stages=lo", "--config.lo.steps=3",
          "--config.lo.model.width=16", "--config.lo.model.depth=2", "--config.lo.batch_rays=64",
          "--config.lo.sampler.num_samples=8", "--config.data.factor=2",
-         "--config.data.test_views=r_0", "--config.budget_s=0",
+         "--config.data.test_views=r_0", "--config.protocol=steps", "--config.budget_s=0",
          "--config.lo.encoding.L=6", "--config.lo.encoding.scale=16"]
   res = subprocess.run(cmd, cwd=REPO, capture_output=True, text=True, timeout=300)
   assert res.returncode == 0, res.stderr[-3000:]

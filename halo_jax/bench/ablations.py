@@ -37,7 +37,7 @@ from halo_jax.bench import (benchmark, code_version, fronts_report, report_commo
                             selection, suites, tool)
 from halo_jax.bench.paths import REPO
 from halo_jax.bench.studies import MATCHED_STEPS, STUDIES, Study, Variant  # noqa: F401
-from halo_jax import runs
+from halo_jax import protocol, runs
 from halo_jax.configure import set_field
 
 FLAGS = flags.FLAGS
@@ -83,12 +83,12 @@ def configure(study: Study, scene: suites.Scene, variant: Variant, seed: int, sc
     if not study.front:
       c.eval.front_s = ()
     return c
-  c.budget_s = 0.0
-  for n, steps in matched_steps(results, scene).items():
-    steps = max(steps, c[n].min_steps)  # a suite run that trained less than the floor
-    c[n].update(max_seconds=0.0, eval_every_s=0.0, stop_at_step=steps,
-                eval_every=max(1, steps // 2))
-  return c
+  caps = {n: max(steps, c[n].min_steps)  # a suite run that trained less than the floor
+          for n, steps in matched_steps(results, scene).items()}
+  protocol.steps(c, caps)
+  for n, steps in caps.items():
+    c[n].eval_every = max(1, steps // 2)
+  return protocol.resolve(c)
 
 
 def run_one(study_name, study, scene, variant, seed, results, scratch) -> dict:

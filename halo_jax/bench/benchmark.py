@@ -27,7 +27,7 @@ from absl import flags, logging
 
 from halo_jax.bench import run_file, selection, suites, tool
 from halo_jax.bench.paths import REPO
-from halo_jax import defaults, runs
+from halo_jax import defaults, protocol, runs
 from halo_jax.configure import load as method_config, set_field
 
 FLAGS = flags.FLAGS
@@ -79,17 +79,16 @@ def configure(suite: suites.Suite, scene: suites.Scene, method: str, seed: int, 
   shares = {n: c.budget_shares[n] for n in names}
   total = sum(shares.values())
   if mode == "time":
-    c.budget_s = suite.budget_s
-    for n in names:
+    protocol.budget(c, suite.budget_s)
+    for n in names:  # on the reference clock: the same steps on any machine
       c[n].eval_every_s = suite.budget_s / suite.curve_points
   else:
-    c.budget_s = 0.0
+    protocol.steps(c)
     for n in names:
       c[n].steps = max(1, round(suite.steps * shares[n] / total))
-      c[n].max_seconds = 0.0
       # the curve's points evenly spread over the method's steps
       c[n].eval_every = max(1, int(suite.steps / suite.curve_points))
-  return c
+  return protocol.resolve(c)
 
 
 def workdir_of(scratch, suite_name, mode, scene, method, seed):
@@ -117,7 +116,8 @@ def front_points(workdir: str, record: dict, with_lpips: bool) -> list:
   (halo_jax/front.py), ending with its final state's scores."""
   from halo_jax import front
   last = list(record["stages"])[-1]
-  final = {"at_s": record["wall_s"], "wall_s": record["wall_s"], "stage": last,
+  final = {"at_s": round(record.get("reference_s") or record["wall_s"], 3),
+           "wall_s": record["wall_s"], "stage": last,
            "step": record["stages"][last]["step"], "final": True,
            **{k: record[k] for k in ("psnr", "ssim", "lpips") if record.get(k) is not None}}
   points = front.evaluate_front(workdir, with_lpips)

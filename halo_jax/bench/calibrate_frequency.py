@@ -26,7 +26,7 @@ from absl import flags, logging
 
 from halo_jax.bench import run_file, suites, tool
 from halo_jax.bench.paths import REPO
-from halo_jax import defaults, provenance
+from halo_jax import defaults, protocol, provenance
 from halo_jax.frequency import calibration
 from halo_jax.configure import load as method_config, set_field
 
@@ -69,8 +69,7 @@ def configure(scene, lo_steps, scratch, validation=False):
                                f"{c.data.procedural_scene}_{c.data.procedural_size}")
   c.tune.lo_steps = lo_steps
   c.tune.lo_seconds = 0.0
-  c.budget_s = 0.0
-  c.lo.max_seconds = 0.0
+  protocol.steps(c)
   return c
 
 

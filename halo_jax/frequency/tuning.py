@@ -17,6 +17,7 @@ from typing import List, Tuple
 
 import numpy as np
 
+from halo_jax import protocol
 from halo_jax.frequency import spectrum, view_pairs
 from halo_jax.stages import base, collapse
 from halo_jax.stages.state import load
@@ -63,13 +64,12 @@ def point_config(config, L, scale):
   """The short Lo-NeRF run of one grid point."""
   c = copy.deepcopy(config)
   c.stages = "lo"
-  c.budget_s = 0.0
+  protocol.steps(c)
   c.lo.encoding.L, c.lo.encoding.scale = int(L), float(scale)
   c.lo.encoding.auto = False
   # The points train as the threshold was calibrated: lo_steps steps, with no
   # time cap unless lo_seconds sets one (a launch's budget does not apply).
   c.lo.max_seconds = float(c.tune.lo_seconds)
-  c.lo.eval_every_s = 0.0
   if c.tune.lo_steps:
     c.lo.steps = c.tune.lo_steps
   return c

@@ -21,7 +21,7 @@ if TYPE_CHECKING:  # annotations only
 class StageContext:
   """Everything a trainer gets: the run config, the stage's name, the data,
   the workdir, finished stages' states by name, the metrics log, training
-  seconds spent by earlier stages, the data-parallel mesh (or None), and the
+  seconds spent by earlier stages (reference seconds: loop.clock), the data-parallel mesh (or None), and the
   pacing.Pacer of a run driven step by step from outside (or None)."""
   config: Config
   name: str
@@ -40,8 +40,9 @@ class StageContext:
   @property
   def front_s(self):
     """The front's times (eval.front_s) this stage owes: those past the
-    earlier stages' training (snapshots.py)."""
-    return tuple(t for t in self.config.eval.front_s if t > self.wall_offset)
+    earlier stages' training on the reference clock (snapshots.py)."""
+    offset = self.cfg.ref_offset_s if self.cfg.get("ref_step_s", 0.0) else self.wall_offset
+    return tuple(t for t in self.config.eval.front_s if t > offset)
 
 
 RenderFn = Callable[..., Dict[str, Array]]   # (origins, dirs[, times]) -> {'rgb', 'depth', ...}

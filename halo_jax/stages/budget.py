@@ -1,75 +1,92 @@
-"""The time budget, in one place: how `budget_s` is split over a method's
-stages, what each stage may still spend when it starts, and when a stage's
-loop stops.
+"""How long a stage's loop runs, in one place: its last step, its reference
+clock, and the count a stage with no table entry fixes after measuring its
+own steps.
 
-A method's `budget_s` > 0 is split over the stages its output stage needs by
-`budget_shares`, normalised over those stages, so that a launch of one stage
-gets the time it gets in a full run and a one-stage baseline gets all of it.
-A stage that reaches its `steps` cap before its share leaves the rest to the
-next; one that runs past its share (its `min_steps` floor) takes the excess
-from the next, so the method trains for `budget_s`; the last stage's floor is
-the only way past it. Training seconds exclude compilation and held-out
-evaluations; work a stage does before its loop (rendering targets, a bank of
-rays) is taken from its own share.
+Under every protocol (halo_jax/protocol.py) a stage runs to a step count
+known before its loop starts, except a budgeted stage whose sizes the step
+table lacks: it has `max_seconds` (its share of the budget, less the set-up
+work it did first) and fixes its count after its first MEASURE_STEPS steps
+(`fixed_count`). No loop stops on the clock.
 """
 import copy
+import json
+import math
+import os
 
 from halo_jax.stages.order import needed
 
-
-def split(config):
-  """A copy of config whose stages' max_seconds split config.budget_s by
-  share over the stages config.final_stage needs (none without a budget)."""
-  config = copy.deepcopy(config)
-  if config.budget_s > 0:
-    names = needed(config, config.final_stage)
-    total = sum(config.budget_shares[n] for n in names)
-    for n in names:
-      config[n].max_seconds = config.budget_s * config.budget_shares[n] / total
-  return config
+# steps a self-measuring stage times after compilation before fixing its count
+MEASURE_STEPS = 20
 
 
-def cumulative(config) -> dict:
-  """{stage: seconds of a split config's budget given to the method's stages
-  up to and including it}."""
-  until, total = {}, 0.0
-  for n in needed(config, config.final_stage):
-    total += config[n].max_seconds
-    until[n] = total
+def shares_until(config) -> dict:
+  """{stage: budget seconds of the method's stages up to and including it},
+  config.budget_s split by budget_shares over the stages config.final_stage needs."""
+  names = needed(config, config.final_stage)
+  total = sum(config.budget_shares[n] for n in names)
+  until, acc = {}, 0.0
+  for n in names:
+    acc += config.budget_s * config.budget_shares[n] / total
+    until[n] = acc
   return until
 
 
-def start_stage(config, name, until, spent):
-  """Sets stage `name`'s max_seconds to what is left of the budget up to it
-  (`until`, cumulative's) after `spent` seconds of the stages before it."""
-  if config.budget_s > 0:
+def start_measured(config, name, until, spent):
+  """A self-measuring stage `name` gets what is left of the budget up to it
+  (`until`, shares_until's) after `spent` reference seconds of the stages
+  before it: the one edit a running pipeline makes to its config."""
+  if config[name].max_seconds and name in until:
     config[name].max_seconds = max(until[name] - spent, 1e-3)
 
 
 def minus_seconds(cfg, seconds):
-  """A copy of a stage config whose time cap leaves room for `seconds` the stage
-  already spent outside the loop (e.g. rendering Lo-NeRF targets)."""
+  """A copy of a self-measuring stage's config whose time leaves room for
+  `seconds` the stage already spent outside the loop (e.g. rendering Lo-NeRF
+  targets); a stage with a fixed count is returned as it is."""
+  if not cfg.max_seconds:
+    return cfg
   cfg = copy.deepcopy(cfg)
-  if cfg.max_seconds:
-    cfg.max_seconds = max(cfg.max_seconds - seconds, 1e-3)
+  cfg.max_seconds = max(cfg.max_seconds - seconds, 1e-3)
   return cfg
 
 
 def last_step(cfg) -> int:
-  """The step a stage's loop ends at: `steps`, or `stop_at_step` when set and sooner."""
-  return min(cfg.steps, cfg.stop_at_step or cfg.steps)
+  """The step a stage's loop ends at: `steps`, or `stop_at_step` or the
+  budget's `budget_steps` where sooner."""
+  return min(cfg.steps, cfg.stop_at_step or cfg.steps, cfg.get("budget_steps", 0) or cfg.steps)
 
 
-def out_of_time(cfg, wall_s, step) -> bool:
-  """Whether the stage stops before `step` after `wall_s` training seconds:
-  its time cap is reached and `step` is past its floor of steps
-  (min(min_steps, steps)), so that no stage of a method is left untrained on
-  a slow machine."""
-  return bool(cfg.max_seconds) and wall_s >= cfg.max_seconds and step > min(cfg.min_steps,
-                                                                              cfg.steps)
+def fixed_count(cfg, step_s: float) -> int:
+  """The step count of a self-measuring stage whose steps take `step_s`:
+  the step that crosses max_seconds is taken, and at least
+  min(min_steps, steps), at most last_step."""
+  count = math.ceil(cfg.max_seconds / max(step_s, 1e-9) - 1e-9)
+  return max(1, min(max(count, min(cfg.min_steps, cfg.steps)), last_step(cfg)))
 
 
-def past_time_cap(cfg, wall_s, start, step) -> bool:
-  """Whether a loop from `start` to `step` trained past its time cap because
-  of its floor of steps."""
-  return bool(cfg.max_seconds and wall_s > cfg.max_seconds and start < step <= cfg.min_steps)
+def reference_s(cfg, step: int, wall_s: float, measured_step_s: float = 0.0) -> float:
+  """The stage's reference clock after `step` (offset of the stages before
+  included): from the table's step time, or a self-measured one, else the wall."""
+  step_s = cfg.get("ref_step_s", 0.0) or measured_step_s
+  if not step_s:
+    return cfg.get("ref_offset_s", 0.0) + wall_s
+  return cfg.ref_offset_s + cfg.ref_setup_s + step * step_s
+
+
+def _fixed_path(workdir, name):
+  return os.path.join(workdir, name, "fixed_steps.json")
+
+
+def read_fixed(workdir, name):
+  """{'steps', 'step_s'} a self-measuring stage fixed earlier (None if none)."""
+  path = _fixed_path(workdir, name)
+  if not os.path.exists(path):
+    return None
+  with open(path) as f:
+    return json.load(f)
+
+
+def write_fixed(workdir, name, steps: int, step_s: float):
+  os.makedirs(os.path.dirname(_fixed_path(workdir, name)), exist_ok=True)
+  with open(_fixed_path(workdir, name), "w") as f:
+    json.dump({"steps": int(steps), "step_s": float(step_s)}, f)

@@ -36,16 +36,57 @@ class _Run:
   """One stage's loop state: the train state, its clock and its records."""
 
   def __init__(self, name, cfg, train_state, wall_s, mngr, log, eval_fn, wall_offset,
-               board=None, snaps=None, pacer=None, select=None):
+               board=None, snaps=None, pacer=None, select=None, workdir=""):
     self.name, self.cfg, self.state, self.wall_s = name, cfg, train_state, wall_s
+    self.workdir = workdir
+    self.start_step, self.start_wall = int(train_state["step"]), wall_s
+    # The loop's last step. A self-measuring stage (max_seconds) fixes it once
+    # after its first steps, and a resumed one keeps what it fixed.
+    self.last = budget.last_step(cfg)
+    self.measured_step_s = 0.0
+    fixed = budget.read_fixed(workdir, name) if cfg.max_seconds else None
+    self.fixed = fixed is not None
+    if fixed:
+      self.last, self.measured_step_s = fixed["steps"], fixed["step_s"]
     self.select = select  # (selection.Best, select_fn) or None
     self.snaps = snaps  # snapshots.Snapshots or None
     self.pacer = pacer  # pacing.Pacer or None
     self.mngr, self.log, self.eval_fn, self.wall_offset = mngr, log, eval_fn, wall_offset
-    self.last_eval_s, self.last_log = wall_s, int(train_state["step"])
+    self.last_eval_s, self.last_log = self.clock(self.start_step), self.start_step
     self.last_eval_step = None
     self.board = board  # TensorBoard writer or None
     self.lr = schedule(cfg)
+
+  def clock(self, step) -> float:
+    """The method's reference seconds after `step` (halo_jax/protocol.py):
+    the table's step time from the stage's reference offset, else this
+    machine's (self-measured, then fixed) from the wall-clock offset. The
+    front's snapshots and the curve's evaluations are placed on it."""
+    cfg = self.cfg
+    if cfg.get("ref_step_s", 0.0):
+      return cfg.ref_offset_s + cfg.ref_setup_s + step * cfg.ref_step_s
+    if self.measured_step_s:
+      return self.wall_offset + self.start_wall + (step - self.start_step) * self.measured_step_s
+    return self.wall_offset + self.wall_s
+
+  def fix_count(self, step):
+    """A self-measuring stage fixes its last step once it has timed
+    MEASURE_STEPS steps (or spent its time first), and says so."""
+    cfg = self.cfg
+    done = step - self.start_step
+    if self.fixed or not cfg.max_seconds or (done < budget.MEASURE_STEPS
+                                             and self.wall_s < cfg.max_seconds):
+      return
+    self.finish_step()
+    self.measured_step_s = (self.wall_s - self.start_wall) / max(done, 1)
+    self.last = max(step, budget.fixed_count(cfg, self.measured_step_s))
+    self.fixed = True
+    if parallel.is_primary():
+      budget.write_fixed(self.workdir, self.name, self.last, self.measured_step_s)
+      print(f"stage {self.name}: no reference step time for its sizes; "
+            f"{self.measured_step_s:.4g} s a step on this machine fixes {self.last} steps for "
+            f"its {cfg.max_seconds:.1f} s (this machine's count: `halo-steps` adds the entry)",
+            flush=True)
 
   def finish_step(self):
     """Waits for the step in flight, counting the wait as training time."""
@@ -54,7 +95,7 @@ class _Run:
     self.wall_s += time.perf_counter() - t0
 
   def evaluate(self, step):
-    self.last_eval_step, self.last_eval_s = step, self.wall_s
+    self.last_eval_step, self.last_eval_s = step, self.clock(step)
     params = parallel.to_local(self.state["params"])
     metrics = dict(self.eval_fn(params, step))
     images = metrics.pop("images", {})  # for TensorBoard only
@@ -120,7 +161,7 @@ class _Run:
     if step % cfg.checkpoint_every == 0:
       self.save(step)
     due = (cfg.eval_every and step % cfg.eval_every == 0) or (
-        cfg.eval_every_s and self.wall_s - self.last_eval_s >= cfg.eval_every_s)
+        cfg.eval_every_s and self.clock(step) - self.last_eval_s >= cfg.eval_every_s)
     if due and self.eval_fn is not None:
       self.finish_step()
       self.evaluate(step)
@@ -131,7 +172,7 @@ class _Run:
     reached (not counted as training time)."""
     if self.snaps is None:
       return
-    times = self.snaps.due(self.wall_offset + self.wall_s)
+    times = self.snaps.due(self.clock(step))
     if times:
       self.finish_step()
       self.snaps.save(step, self.state["params"], self.wall_offset + self.wall_s, times)
@@ -207,10 +248,10 @@ def train(name: str, cfg, workdir: str, params, loss_fn: Callable, data, seed: i
   train_state, wall_s, mngr = _start(name, workdir, params, tx, mesh, log)
   start = int(train_state["step"])
   board = tensorboard.open_writer(workdir, name, start) if parallel.is_primary() else None
-  snaps = (snapshots.Snapshots(workdir, name, snapshot_s, start, wall_offset + wall_s)
-           if snapshot_s else None)
-  run = _Run(name, cfg, train_state, wall_s, mngr, log, eval_fn, wall_offset, board, snaps, pacer,
-             select_fn and (selection.Best(workdir, name), select_fn))
+  run = _Run(name, cfg, train_state, wall_s, mngr, log, eval_fn, wall_offset, board, None, pacer,
+             select_fn and (selection.Best(workdir, name), select_fn), workdir)
+  if snapshot_s:
+    run.snaps = snapshots.Snapshots(workdir, name, snapshot_s, start, run.clock(start))
   data = parallel.replicate(data, mesh)
   base_key = jax.random.PRNGKey(seed)
   # Compiled before the clock starts: a time budget buys training steps, and
@@ -245,19 +286,24 @@ def _info(run, start, step, compile_s, constant_psnr) -> dict:
   """`train`'s info of a finished loop that began at `start` and ended at `step`."""
   cfg = run.cfg
   return {"wall_s": run.wall_s, "skipped": int(run.state["skipped"]), "compile_s": compile_s,
-          # the time cap was reached before the floor of steps: trained past it
-          "past_time_cap": budget.past_time_cap(cfg, run.wall_s, start, step),
+          # the method's reference seconds at the stage's end (the next stage's offset)
+          "reference_end_s": run.clock(step),
+          # the floor of steps outlasted the stage's share of the budget
+          "past_time_cap": bool(cfg.max_seconds and run.measured_step_s
+                                and step * run.measured_step_s > cfg.max_seconds
+                                and step <= cfg.min_steps),
+          **({"fixed_steps": run.last, "measured_step_s": run.measured_step_s}
+             if run.measured_step_s else {}),
           "learned": collapse.verdict(run.log.training_psnr(run.name), constant_psnr,
                                       **cfg.collapse)}
 
 
 def _loop(run, step_fn, data, base_key, bar, start, cfg):
-  """Steps until cfg.steps or cfg.max_seconds; returns the last step taken."""
+  """Steps until the stage's last step (run.last, which a self-measuring
+  stage fixes on the way); returns the last step taken."""
   step, in_flight = start, None  # in_flight: the loss of the step before the current one
-  for step in range(start + 1, budget.last_step(cfg) + 1):
-    if budget.out_of_time(cfg, run.wall_s, step):
-      step -= 1
-      break
+  while step < run.last:
+    step += 1
     if run.pacer is not None:
       run.pacer.wait_turn(run)
     t0 = time.perf_counter()
@@ -271,6 +317,7 @@ def _loop(run, step_fn, data, base_key, bar, start, cfg):
     dt = time.perf_counter() - t0
     run.wall_s += dt
     bar.advance(step, dt, run.wall_s)
+    run.fix_count(step)
     run.after_step(step, loss, aux, bar)
     if run.pacer is not None:
       run.paced(step, loss, aux)

@@ -255,6 +255,7 @@ def train(ctx: base.StageContext):
                                   constant_psnr=collapse.constant_psnr(ds.train.images),
                                   select_fn=base.select_fn(ctx, make_eval))
   info["wall_s"] += bank_s
+  info["setup_s"] = bank_s
   eval_dir = os.path.join(stage_dir(ctx.workdir, name), "eval")
   final = make_eval(params, info.get("selected", {}).get("step", step))
   info["eval"] = evaluate.evaluate(final, ds.test, config.eval.chunk, eval_dir, ds.near, ds.far,

@@ -116,7 +116,7 @@ def train(ctx: base.StageContext):
                                   ctx.wall_offset + target_s, ctx.mesh,
                                   snapshot_s=ctx.front_s, pacer=ctx.pacer)
   info["wall_s"] += target_s
-  info.update(target_s=target_s, target_rays=int(data.train.depth.shape[0]))
+  info.update(target_s=target_s, setup_s=target_s, target_rays=int(data.train.depth.shape[0]))
   return StageState(params, step, config, name), info
 
 

@@ -2,8 +2,9 @@
 points of the run's error-against-time front, scored after training
 (halo_jax/front.py) so that scoring never counts as training time.
 
-Times are the method's training seconds (earlier stages included, as the
-loop's `wall_offset + wall_s`). A stage saves a snapshot at the first step
+Times are the method's reference seconds (earlier stages included, the
+loop's `clock`: under a budget the step table's, so a point falls at the
+same step on any machine); each point keeps this machine's seconds too. A stage saves a snapshot at the first step
 that ends at or past each time after the earlier stages' training (its own
 set-up, such as rendering Lo-NeRF's targets, included); one snapshot serves
 every time a single step crosses. Files:

@@ -1,0 +1,139 @@
+"""A run's protocol, one value: how long each stage trains.
+
+`config.protocol` is one of
+  'paper'   each stage trains its `steps` (the paper's counts);
+  'steps'   each stage trains its `steps`, or `stop_at_step` where that is
+            sooner, the schedules still spanning `steps` (explicit caps);
+  'budget'  `config.budget_s` *reference seconds*, split over the method's
+            stages by `budget_shares`, each share turned into a step count
+            from the committed table of step times (halo_jax/step_table.py),
+            measured on one reference machine. A run then trains exactly those
+            steps on any machine, fast or slow.
+
+`resolve` fixes the step counts once, before anything trains, from the
+config alone; it writes only the stage fields it owns (`budget_steps`,
+`ref_step_s`, `ref_setup_s`, `ref_offset_s`, `max_seconds`) and is
+idempotent, so the pipeline can resolve again what `configure` resolved.
+
+The reference clock of a stage is `ref_offset_s + ref_setup_s + step *
+ref_step_s`: the front's snapshots (eval.front_s) and the held-out curve's
+points (eval_every_s) are placed on it, so they fall at the same steps on any
+machine; records keep their own wall-clock beside it.
+
+A stage with no table entry (a size nobody measured) gets `max_seconds` of
+its share instead: its loop measures its own step time on its first steps
+after compilation and fixes its count there (stages/loop.py, `fixed_steps`
+in its info, kept on resume). That count is this machine's, and the run's
+record says so (`protocol.measured`).
+"""
+import math
+
+from halo_jax import registry, step_table
+from halo_jax.stages.order import needed, stage_names
+
+KINDS = ("paper", "steps", "budget")
+OWNED = ("budget_steps", "ref_step_s", "ref_setup_s", "ref_offset_s")
+
+
+def budget(config, seconds: float):
+  """Sets `config` to the 'budget' protocol: `seconds` reference seconds."""
+  config.protocol, config.budget_s = "budget", float(seconds)
+  return config
+
+
+def steps(config, caps=None):
+  """Sets `config` to the 'steps' protocol, each stage of `caps` ({stage:
+  steps}) stopping there (stop_at_step) with its schedules spanning `steps`."""
+  config.protocol, config.budget_s = "steps", 0.0
+  for name, n in (caps or {}).items():
+    config[name].stop_at_step = int(n)
+  for name in stage_names(config):  # no clock: neither a time cap nor timed evaluations
+    config[name].update(eval_every_s=0.0, max_seconds=0.0)
+  return config
+
+
+def paper(config):
+  """Sets `config` to the 'paper' protocol: every stage trains its `steps`."""
+  config.protocol, config.budget_s = "paper", 0.0
+  for name in stage_names(config):
+    config[name].update(eval_every_s=0.0, max_seconds=0.0)
+  return config
+
+
+def _clear(config):
+  """Resets the fields resolve owns (a budget owns max_seconds too; under
+  the other protocols it is the user's time cap, which a loop also turns
+  into steps after timing its first ones)."""
+  for name in stage_names(config):
+    for field in OWNED:
+      config[name][field] = 0 if field == "budget_steps" else 0.0
+    if config.protocol == "budget":
+      config[name].max_seconds = 0.0
+
+
+def check(config):
+  """ConfigError naming the field for an unknown protocol, or a budget that
+  does not fit it (run before any work: halo_jax/validate.py)."""
+  kind = config.get("protocol", "paper")
+  registry.check(kind in KINDS, f"protocol={kind!r}: must be one of {list(KINDS)}")
+  registry.check(config.budget_s >= 0, f"budget_s={config.budget_s!r}: must be >= 0")
+  registry.check((config.budget_s > 0) == (kind == "budget"),
+                 f"budget_s={config.budget_s!r} with protocol={kind!r}: a budget of reference "
+                 "seconds needs protocol='budget' and budget_s > 0; the other protocols have none")
+  if kind == "budget":
+    names = needed(config, config.final_stage)
+    shares = {n: config.budget_shares.get(n, None) for n in names}
+    missing = [n for n, v in shares.items() if v is None]
+    registry.check(not missing, f"budget_shares has no share for stage(s) {missing}")
+    registry.check(all(v >= 0 for v in shares.values()) and sum(shares.values()) > 0,
+                   f"budget_shares {shares}: shares must be >= 0 and sum to more than 0 over "
+                   f"the stages {list(names)}")
+
+
+def resolve(config):
+  """Fixes each stage's step count under config's protocol, in place; returns
+  config (ConfigError as `check` says)."""
+  check(config)
+  _clear(config)
+  if config.protocol != "budget":
+    return config
+  names = needed(config, config.final_stage)
+  shares = {n: config.budget_shares[n] for n in names}
+  table = step_table.load(config.get("step_table", ""))
+  total = sum(shares.values())
+  until, spent, measuring = 0.0, 0.0, False
+  for name in names:
+    cfg = config[name]
+    until += config.budget_s * shares[name] / total
+    entry = None if measuring else table.get(step_table.key(config, name))
+    if entry is None:  # this machine measures it (stages/loop.py); so do the stages after it
+      measuring = True
+      cfg.max_seconds = max(until - spent, 1e-3)
+      spent = until
+      continue
+    floor = min(cfg.min_steps, cfg.steps)
+    cap = min(cfg.steps, cfg.stop_at_step or cfg.steps)
+    # the step that crosses the share is taken, as a clock-stopped loop would
+    count = math.ceil(max(until - spent - entry["setup_s"], 0.0) / entry["step_s"] - 1e-9)
+    count = max(1, min(max(count, floor), cap))
+    cfg.update(budget_steps=count, ref_step_s=float(entry["step_s"]),
+               ref_setup_s=float(entry["setup_s"]), ref_offset_s=spent)
+    spent += entry["setup_s"] + count * entry["step_s"]
+  return config
+
+
+def summary(config) -> dict:
+  """What a record keeps of the protocol: its kind, budget, and per stage the
+  steps fixed from the table (or 'measured' on this machine) with the key."""
+  kind = config.get("protocol", "paper")
+  out = {"kind": kind, "budget_s": float(config.budget_s)}
+  if kind == "budget":
+    out["stages"] = {n: ({"steps": int(config[n].budget_steps),
+                          "step_s": config[n].ref_step_s, "setup_s": config[n].ref_setup_s,
+                          "key": step_table.key(config, n)}
+                         if config[n].ref_step_s else
+                         {"measured": True, "seconds": config[n].max_seconds,
+                          "key": step_table.key(config, n)})
+                     for n in needed(config, config.final_stage)}
+    out["measured"] = any(s.get("measured") for s in out["stages"].values())
+  return out

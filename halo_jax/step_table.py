@@ -1,0 +1,102 @@
+"""The committed table of step times behind the 'budget' protocol
+(halo_jax/protocol.py): seconds per training step and seconds of set-up work
+(rendering Lo-NeRF's targets or banks) of each stage, measured on one
+reference machine by `halo-steps` (halo_jax/bench/step_times.py).
+
+An entry's key is what sets a step's time, not a scene's name:
+
+  <method>|<data.kind>|<stage>|<digest>
+
+where the digest hashes the stage's sizes: its section of the config without
+the fields that change what a step computes but not how long it takes
+(rates, schedules, caps, logging, weights' values; a term's being on or off
+stays in). A new scene of a known kind and size (chair beside lego) finds
+lego's entry; a change of batch, samples, width or sampler makes a new key,
+which `halo-steps` measures (until then, runs of it measure themselves).
+The ray field's set-up renders Lo-NeRF's targets for every training pixel up
+to `target_rays`, so its key also holds the number of training views.
+"""
+import functools
+import hashlib
+import json
+import os
+
+TABLE = os.path.join(os.path.dirname(__file__), "step_table.json")
+
+# Stage fields that do not change a step's time (dotted, under the stage).
+TIMELESS = frozenset((
+    "steps", "stop_at_step", "min_steps", "max_seconds", "max_nonfinite", "budget_steps",
+    "ref_step_s", "ref_setup_s", "ref_offset_s", "lr_init", "lr_final", "lr_power",
+    "lr_decay_steps", "checkpoint_every", "log_every", "eval_every", "eval_every_s", "select_best",
+    "precrop_steps", "precrop_frac", "fg_steps", "fg_fraction", "density_noise", "init_from_lo",
+    "init_skip_fresh", "encoding.scale", "encoding.time_scale", "encoding.auto",
+    "model.density_bias", "empty.tau", "empty.start_step", "empty.density_noise",
+    "freq_reg.end", "joint.alpha_final", "joint.alpha_steps", "joint.seed", "fourier.seed",
+    "fourier.st_std", "fourier.theta_std", "fourier.uv_std", "joint.std", "joint.uv_std",
+    "sampler.window", "sampler.coarse_weight", "collapse.margin_db", "collapse.after_steps",
+    "collapse.window", "radius", "tau"))
+# Weights: only whether the term is on sets the time.
+WEIGHTS = ("weight", "consist_weight", "color_weight", "nerf_consist_weight")
+
+
+def _flat(tree, prefix=""):
+  out = {}
+  for k, v in tree.items():
+    if isinstance(v, dict):
+      out.update(_flat(v, f"{prefix}{k}."))
+    else:
+      out[prefix + k] = v
+  return out
+
+
+def _sizes(config, name) -> dict:
+  """The stage's fields that set its step time, dotted."""
+  out = {}
+  for field, value in _flat(config[name].to_dict()).items():
+    if field in TIMELESS:
+      continue
+    if field.rsplit(".", 1)[-1] in WEIGHTS:
+      value = bool(value)
+    out[field] = list(value) if isinstance(value, tuple) else value
+  out["sin_cos"] = config.get("sin_cos", "xla")
+  out["data_parallel"] = bool(config.parallel.data_parallel)
+  if config[name].kind == "ray_field":
+    views = str(config.data.train_views)
+    out["train_views"] = len(views.split(",")) if "," in views else views
+  return out
+
+
+def key(config, name) -> str:
+  """The table key of stage `name` of a method's config."""
+  digest = hashlib.sha256(json.dumps(_sizes(config, name), sort_keys=True,
+                                     default=str).encode()).hexdigest()[:12]
+  return f"{config.method}|{config.data.kind}|{name}|{digest}"
+
+
+@functools.lru_cache(maxsize=8)
+def _read(path: str) -> dict:
+  if not os.path.exists(path):
+    return {}
+  with open(path) as f:
+    return json.load(f)
+
+
+def load(path: str = "") -> dict:
+  """{key: {'step_s', 'setup_s', ...}} of the table at `path` ('' : the shipped one)."""
+  return dict(_read(path or TABLE).get("entries", {}))
+
+
+def machine(path: str = "") -> dict:
+  """The reference machine the table was measured on (its 'machine' record)."""
+  return dict(_read(path or TABLE).get("machine", {}))
+
+
+def write(path: str, entries: dict, machine_record: dict) -> None:
+  """Writes the table (sorted, so a re-measure diffs line by line)."""
+  _read.cache_clear()
+  tmp = path + ".tmp"
+  with open(tmp, "w") as f:
+    json.dump({"machine": machine_record, "entries": dict(sorted(entries.items()))}, f,
+              indent=1, sort_keys=True)
+    f.write("\n")
+  os.replace(tmp, path)
