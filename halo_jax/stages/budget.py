@@ -64,15 +64,6 @@ def fixed_count(cfg, step_s: float) -> int:
   return max(1, min(max(count, min(cfg.min_steps, cfg.steps)), last_step(cfg)))
 
 
-def reference_s(cfg, step: int, wall_s: float, measured_step_s: float = 0.0) -> float:
-  """The stage's reference clock after `step` (offset of the stages before
-  included): from the table's step time, or a self-measured one, else the wall."""
-  step_s = cfg.get("ref_step_s", 0.0) or measured_step_s
-  if not step_s:
-    return cfg.get("ref_offset_s", 0.0) + wall_s
-  return cfg.ref_offset_s + cfg.ref_setup_s + step * step_s
-
-
 def _fixed_path(workdir, name):
   return os.path.join(workdir, name, "fixed_steps.json")
 
