@@ -32,7 +32,7 @@ def test_an_only_that_selects_nothing_or_is_no_regex_is_refused_in_one_line():
 @pytest.mark.parametrize("method", ["nerf_tuned", "halo"])
 def test_modes_split_budget_and_steps_by_share(method, tmp_path):
   scene = suites.SMOKE.scenes[0]
-  timed = benchmark.configure(suites.CPU, scene, method, 1, "time", str(tmp_path))
+  timed = benchmark.configure(suites.CPU, scene, method, 1, "budget", str(tmp_path))
   assert timed.seed == 1 and timed.budget_s == suites.CPU.budget_s
   assert timed.protocol == "budget"
   stepped = benchmark.configure(suites.CPU, scene, method, 1, "steps", str(tmp_path))
@@ -73,8 +73,8 @@ def test_ingredient_variants_change_one_thing_to_the_other_baseline(tmp_path):
 def test_smoke_suite_writes_and_skips(tmp_path):
   results, scratch = str(tmp_path / "results"), str(tmp_path / "scratch")
   scene = suites.SMOKE.scenes[0]
-  r = benchmark.run_one("smoke", suites.SMOKE, scene, "nerf_tuned", 0, "time", results, scratch)
-  path = benchmark.result_path(results, "smoke", "time", scene, "nerf_tuned", 0)
+  r = benchmark.run_one("smoke", suites.SMOKE, scene, "nerf_tuned", 0, "budget", results, scratch)
+  path = benchmark.result_path(results, "smoke", "budget", scene, "nerf_tuned", 0)
   with open(path) as f:
     saved = json.load(f)
   assert saved["psnr"] == pytest.approx(r["psnr"])
@@ -101,7 +101,7 @@ def test_smoke_suite_writes_and_skips(tmp_path):
   assert val["split"] == "val" and val["num_views"] == 24 and set(val["stages"]) == {"hi"}
   # above the best constant image (the val views' own mean colour, an oracle
   # no untrained field reaches): the run learned, and the score is of its renders
-  c = benchmark.configure(suites.SMOKE, scene, "nerf_tuned", 0, "time", scratch)
+  c = benchmark.configure(suites.SMOKE, scene, "nerf_tuned", 0, "budget", scratch)
   c.data.update(test_split="val", test_views="all")
   val_images = datasets.load(c.data).test.images
   assert val["stages"]["hi"]["psnr"] > collapse.constant_psnr(val_images) + 1.0
@@ -109,7 +109,7 @@ def test_smoke_suite_writes_and_skips(tmp_path):
   del saved["validation"]
   with open(path, "w") as f:
     json.dump(saved, f)
-  args = ("smoke", scene, "nerf_tuned", 0, "time", results, scratch)
+  args = ("smoke", scene, "nerf_tuned", 0, "budget", results, scratch)
   assert benchmark.add_validation(*args) == "scored"
   with open(path) as f:
     assert json.load(f)["validation"]["stages"]["hi"]["psnr"] == pytest.approx(
@@ -122,7 +122,7 @@ def test_smoke_suite_writes_and_skips(tmp_path):
     json.dump(saved, f)
   assert state(path, scene, suites.SMOKE) == "done"
   assert state(path, scene, suites.SMOKE, add_fronts=True) == "no front"
-  shutil.rmtree(os.path.join(benchmark.workdir_of(scratch, "smoke", "time", scene, "nerf_tuned",
+  shutil.rmtree(os.path.join(benchmark.workdir_of(scratch, "smoke", "budget", scene, "nerf_tuned",
                                                   0), "hi", "snapshots"))
   with pytest.raises(RuntimeError, match="has no snapshots"):
-    benchmark.run_one("smoke", suites.SMOKE, scene, "nerf_tuned", 0, "time", results, scratch)
+    benchmark.run_one("smoke", suites.SMOKE, scene, "nerf_tuned", 0, "budget", results, scratch)

@@ -27,7 +27,7 @@ def _smoke(out, core):
       cwd=REPO, env=env, capture_output=True, text=True, timeout=900, preexec_fn=_pin(core))
   assert res.returncode == 0, res.stderr[-3000:]
   records = {}
-  for path in glob.glob(str(out / "results" / "smoke" / "time" / "*" / "*" / "seed*.json")):
+  for path in glob.glob(str(out / "results" / "smoke" / "budget" / "*" / "*" / "seed*.json")):
     with open(path) as f:
       r = json.load(f)
     records[f"{r['scene']}/{r['method']}/seed{r['seed']}"] = r

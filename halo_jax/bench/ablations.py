@@ -76,7 +76,7 @@ def matched_steps(results: str, scene: suites.Scene) -> dict:
 
 def configure(study: Study, scene: suites.Scene, variant: Variant, seed: int, scratch: str,
               results: str):
-  c = benchmark.configure(_terms(study), scene, variant.method, seed, "time", scratch)
+  c = benchmark.configure(_terms(study), scene, variant.method, seed, "budget", scratch)
   for field, value in variant.overrides:
     set_field(c, field, value)
   if study.budget == "time":

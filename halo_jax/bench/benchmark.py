@@ -1,10 +1,12 @@
 """Runs a benchmark suite (halo_jax/bench/suites.py): every scene x method x seed.
 
-  python experiments/benchmark.py --suite=cpu [--mode=time|steps] [--only=REGEX]
+  python experiments/benchmark.py --suite=cpu [--mode=budget|steps] [--only=REGEX]
   python experiments/benchmark.py --suite=cpu --dry_run      # the plan and what is done
 
-Mode 'time' gives every method the suite's training wall-clock (budget_s,
-split over a method's stages by config.budget_shares); mode 'steps' gives
+Mode 'budget' gives every method the suite's budget_s reference seconds (the
+'budget' protocol, halo_jax/protocol.py: split over a method's stages by
+config.budget_shares, each share a step count from the committed step table,
+so a run trains the same steps on any machine); mode 'steps' gives
 every method the suite's number of training steps, split the same way.
 Each finished run writes one small JSON file,
   results/<suite>/<mode>/<scene>/<method>/seed<k>.json
@@ -32,7 +34,8 @@ from halo_jax.configure import load as method_config, set_field
 
 FLAGS = flags.FLAGS
 flags.DEFINE_enum("suite", "cpu", sorted(suites.SUITES), "Suite to run.")
-flags.DEFINE_enum("mode", "time", ["time", "steps"], "Equal wall-clock or equal steps.")
+flags.DEFINE_enum("mode", "budget", ["budget", "steps"],
+                  "Equal reference seconds (protocol 'budget') or equal steps.")
 flags.DEFINE_string("results", os.path.join(REPO, "results"), "Result files' root.")
 flags.DEFINE_string("scratch", "/tmp/halo_bench", "Workdirs (checkpoints, renders).")
 flags.DEFINE_string("only", "", "Run only runs whose 'scene/method/seed<k>' matches this regex.")
@@ -75,14 +78,16 @@ def configure(suite: suites.Suite, scene: suites.Scene, method: str, seed: int, 
   c.eval.front_s = tuple(suite.front_s)
   for field, value in suite.overrides + scene.overrides:
     set_field(c, field, value)
+  if mode not in ("budget", "steps"):
+    raise ValueError(f"mode={mode!r}: must be 'budget' or 'steps'")
   names = pipeline.needed(c, c.final_stage)
   shares = {n: c.budget_shares[n] for n in names}
   total = sum(shares.values())
-  if mode == "time":
+  if mode == "budget":
     protocol.budget(c, suite.budget_s)
     for n in names:  # on the reference clock: the same steps on any machine
       c[n].eval_every_s = suite.budget_s / suite.curve_points
-  else:
+  elif mode == "steps":
     protocol.steps(c)
     for n in names:
       c[n].steps = max(1, round(suite.steps * shares[n] / total))

@@ -91,7 +91,7 @@ def measuring_config(config, caps: dict):
 
 def measure(suite, scene, method, scratch) -> dict:
   """{key: {'step_s', 'setup_s', 'steps', 'wall_s'}} of one (scene, method)."""
-  c = benchmark.configure(suite, scene, method, 0, "time", scratch)
+  c = benchmark.configure(suite, scene, method, 0, "budget", scratch)
   keys = keys_of(c)
   caps = {n: min(FLAGS.ray_steps if c[n].kind == "ray_field" else FLAGS.lo_steps, c[n].steps)
           for n in keys}
@@ -122,7 +122,7 @@ def from_records(results: str) -> dict:
           continue
         with open(path) as f:
           record = json.load(f)
-        c = benchmark.configure(suites.CPU, scene, method, seed, "time", "/tmp/halo_bench")
+        c = benchmark.configure(suites.CPU, scene, method, seed, "budget", "/tmp/halo_bench")
         for n, k in keys_of(c).items():
           stage = record["stages"][n]
           setup = float(stage.get("target_s", 0.0))
@@ -157,7 +157,7 @@ def anchor_ratio(entries, todo) -> float:
   if not anchor:
     sys.exit(f"--anchor={FLAGS.anchor!r} is no scene/method of the suites")
   suite, scene, method = anchor[0]
-  keys = keys_of(benchmark.configure(suite, scene, method, 0, "time", FLAGS.scratch))
+  keys = keys_of(benchmark.configure(suite, scene, method, 0, "budget", FLAGS.scratch))
   if not all(k in entries for k in keys.values()):
     return 1.0
   now = measure(suite, scene, method, FLAGS.scratch)
@@ -190,7 +190,7 @@ def main(argv):
     if scene.needs and not os.path.isdir(os.path.join(benchmark.data_root(), scene.needs)):
       print(f"no data   {tag}", flush=True)
       continue
-    c = benchmark.configure(suite, scene, method, 0, "time", FLAGS.scratch)
+    c = benchmark.configure(suite, scene, method, 0, "budget", FLAGS.scratch)
     missing = [k for k in keys_of(c).values() if FLAGS.remeasure or k not in entries]
     if FLAGS.dry_run or not missing:
       print(f"{'missing' if missing else 'in table'} {tag}: {', '.join(missing)}", flush=True)
