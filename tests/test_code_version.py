@@ -41,7 +41,7 @@ def test_a_fingerprint_moves_with_any_figure_of_its_method_and_no_other():
 def test_records_pool_by_fingerprint_and_the_rest_is_set_aside(tmp_path):
   head = _history()
   table_path = str(tmp_path / "fingerprints.json")
-  code_version.record(head, FIGURES, steps=3, views=1, path=table_path)
+  code_version.record(head, FIGURES, views=1, path=table_path)
   table = code_version.load(table_path)
   tree = provenance.code_tree(head)
   assert table[tree]["methods"]["halo"] == code_version.of_runs(FIGURES, "halo")

@@ -4,17 +4,22 @@ A record names the commit its run started from and whether the tree was
 modified. The commit's code tree (provenance.code_tree: a hash of the
 training code's files) names the code exactly, but two trees can make the
 same numbers (a refactor, a comment). So a tree's fingerprint is measured:
-`experiments/same_numbers.py --record` trains every method step-capped on one
-scene of each kind and hashes, per method, every logged loss and held-out
-PSNR. Records of one method pool when their fingerprints agree, and a record
+`experiments/same_numbers.py --record` makes the fingerprint run
+(halo_jax/bench/fingerprint.py: a short real run of the 'budget' protocol,
+every stage past every step switch) of every method on one CPU-suite scene
+of each kind, and hashes, per method, every logged loss, held-out figure,
+step count and collapse verdict. Records of one method pool when their fingerprints agree, and a record
 is current when its fingerprint is the one the newest measured commit has
 (so that a page is a function of results/ alone; `same_numbers.py --record`
 after a change of the training code brings the newest commit forward).
 Nobody lists neutral commits by hand: a change that moves no number measures
 the same fingerprint.
 
-results/fingerprints.json: {code tree: {"commit", "methods": {method:
-fingerprint}, "scenes", "steps", "views", "versions", "time_utc"}}.
+results/fingerprints.json: {code tree: {"commit", "definition", "methods":
+{method: fingerprint}, "scenes", "views", "versions", "time_utc"}}. An entry
+without "definition" was measured by the earlier definition (3 steps a stage,
+no budget, no evaluation during training); fingerprints of two definitions
+never compare equal, and "current" is judged among DEFINITION's entries.
 
 The fingerprint sees what step-capped runs compute, not how fast: a change
 of speed moves what a time-budgeted run trains without moving the
@@ -31,6 +36,9 @@ from halo_jax.bench.paths import REPO
 from halo_jax import provenance
 
 FILE = os.path.join(REPO, "results", "fingerprints.json")
+
+# The fingerprint run's definition that entries are measured with now.
+DEFINITION = "run-2"
 
 UNMEASURED = "unmeasured"   # the record's tree has no fingerprint for its method
 MODIFIED = "modified tree"  # the run's training code was not a commit's
@@ -52,16 +60,19 @@ def of_runs(runs: dict, method: str):
   return hashlib.sha256(json.dumps(mine, sort_keys=True).encode()).hexdigest()[:12]
 
 
-def record(commit: str, runs: dict, steps: int, views: int, path: str = FILE) -> str:
+def record(commit: str, runs: dict, views: int, path: str = FILE) -> str:
   """Stores the fingerprints of every method in `runs` (same_numbers' figures
-  at `commit`) under the commit's code tree; returns a line saying so."""
+  at `commit`) under the commit's code tree; returns a line saying so. An
+  entry of an earlier definition is replaced, not added to."""
   tree = provenance.code_tree(commit)
   table = load(path)
   methods = sorted({k.rsplit("/", 1)[-1] for k in runs})
-  entry = table.setdefault(tree, {"commit": commit, "methods": {}})
+  if table.get(tree, {}).get("definition") != DEFINITION:
+    table[tree] = {"commit": commit, "definition": DEFINITION, "methods": {}}
+  entry = table[tree]
   entry["methods"].update({m: of_runs(runs, m) for m in methods})
   entry.update(commit_time=commit_time(commit),
-               scenes=sorted({k.rsplit("/", 1)[0] for k in runs}), steps=steps, views=views,
+               scenes=sorted({k.rsplit("/", 1)[0] for k in runs}), views=views,
                versions=provenance.collect(measure_peak=False)["versions"],
                time_utc=time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()))
   with open(path, "w") as f:
@@ -95,13 +106,14 @@ def of_record(rec: dict, table: dict) -> str:
 
 
 def newest(table: dict):
-  """(code tree, entry) of the newest commit measured (by commit time), or
-  (None, {}) for an empty table. Pages judge "current" against it, so that
+  """(code tree, entry) of the newest commit measured (by commit time) under
+  DEFINITION (any definition where none is), or (None, {}) for an empty table. Pages judge "current" against it, so that
   they are a function of results/ alone; same_numbers --record after a
   change of the training code moves it."""
   if not table:
     return None, {}
-  tree = max(table, key=lambda t: (table[t].get("commit_time", ""), t))
+  mine = [t for t in table if table[t].get("definition") == DEFINITION] or list(table)
+  tree = max(mine, key=lambda t: (table[t].get("commit_time", ""), t))
   return tree, table[tree]
 
 
