@@ -195,9 +195,14 @@ def main(argv):
   data_root = os.environ.get("HALO_DATA", defaults.data_root(""))
   todo = [(scene, m) for scene, methods in scene_list() for m in methods
           if not scene.needs or os.path.isdir(os.path.join(data_root, scene.needs))]
-  for scene, _ in scene_list():
-    if scene.needs and not os.path.isdir(os.path.join(data_root, scene.needs)):
-      print(f"skipped {scene.name}: no {os.path.join(data_root, scene.needs)}")
+  missing = [f"{scene.name} (no {os.path.join(data_root, scene.needs)})"
+             for scene, _ in scene_list()
+             if scene.needs and not os.path.isdir(os.path.join(data_root, scene.needs))]
+  if missing and FLAGS.record:  # a fingerprint covers every scene kind, or is not recorded
+    sys.exit(f"error: --record needs every scene's data; missing: {', '.join(missing)} "
+             "(set HALO_DATA)")
+  for line in missing:
+    print(f"skipped {line}")
   results = {}
   if os.path.exists(FLAGS.out):  # a stopped launch: keep the runs it finished
     with open(FLAGS.out) as f:
