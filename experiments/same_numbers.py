@@ -51,7 +51,7 @@ os.environ["XLA_FLAGS"] = (os.environ.get("XLA_FLAGS", "")
                            + " --xla_cpu_multi_thread_eigen=false"
                            + " intra_op_parallelism_threads=1").strip()
 
-from absl import app, flags  # noqa: E402
+from absl import app, flags, logging  # noqa: E402
 
 from halo_jax import datasets, defaults, pipeline, provenance  # noqa: E402
 from halo_jax.bench import code_version, fingerprint, suites  # noqa: E402
@@ -180,6 +180,7 @@ def run_shards() -> dict:
 
 def main(argv):
   del argv
+  logging.set_verbosity(logging.WARNING)
   if FLAGS.commit:
     sha = subprocess.run(["git", "-C", code_version.REPO, "rev-parse", FLAGS.commit],
                          capture_output=True, text=True, check=True).stdout.strip()

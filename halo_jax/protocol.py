@@ -111,7 +111,9 @@ def resolve(config):
       cfg.max_seconds = max(until - spent, 1e-3)
       spent = until
       continue
-    floor = min(cfg.min_steps, cfg.steps)
+    # A floor is paid for by the shares after it; the last stage has none, so
+    # it gets no floor and the method ends within its budget (equal time).
+    floor = min(cfg.min_steps, cfg.steps) if name != names[-1] else 0
     cap = min(cfg.steps, cfg.stop_at_step or cfg.steps)
     # the step that crosses the share is taken, as a clock-stopped loop would
     count = math.ceil(max(until - spent - entry["setup_s"], 0.0) / entry["step_s"] - 1e-9)

@@ -72,6 +72,19 @@ def test_a_share_too_small_still_trains_the_floor_and_the_next_stage_pays(tmp_pa
   assert c.hi.budget_steps == math.ceil((100.0 - spent - 0.5) / 0.2 - 1e-9)
 
 
+def test_the_last_stage_has_no_floor_so_a_method_ends_within_its_budget(tmp_path):
+  c = tiny_config()
+  c.budget_shares.update(lo=0.3, ray=0.07, hi=0.63)
+  for n in ("lo", "ray", "hi"):
+    c[n].update(steps=10 ** 5, min_steps=100)
+  protocol.budget(c, 10.0)
+  c.step_table = _table(tmp_path, c)
+  protocol.resolve(c)
+  assert c.lo.budget_steps == 100 and c.ray.budget_steps == 100      # floors: 10 s, 1 s
+  # hi: nothing left after lo's 10 s, ray's 2 s set-up and 1 s: one step, not 100
+  assert c.hi.budget_steps == 1
+
+
 def test_resolving_again_gives_the_same_counts_and_follows_a_new_budget(tmp_path):
   c = _budgeted(tmp_path)
   first = c.to_dict()

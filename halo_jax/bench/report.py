@@ -156,6 +156,16 @@ def scene_sections(name, mode, scenes, docs, plots=True) -> list:
   return out
 
 
+# Modes whose records no longer decide anything, and why (their pages stay).
+SUPERSEDED = {"time": (
+    "**Superseded.** These runs trained for 240 s of this machine's wall-clock, so their "
+    "step counts, and their figures, followed the machine's speed that day. They are kept "
+    "because the step table of the `budget` protocol was built from seeds 0 and 1 "
+    "(`halo-steps --from_records`); the current figures are the `budget` mode's.")}
+# The suite and mode the README's headline is computed from.
+HEADLINE = ("cpu", "budget")
+
+
 def write_suite(suite, mode, scenes, docs, versions=None, plots=True):
   """Writes docs/<suite>_<mode>.md (and, with `plots`, its figures); returns its name."""
   name = f"{suite}_{mode}"
@@ -167,6 +177,8 @@ def write_suite(suite, mode, scenes, docs, versions=None, plots=True):
          "scene's held-out views; Δ is the difference of means to `nerf_tuned`. The curve "
          "columns and plots use the first few held-out views (`eval.curve_views`), "
          "evaluated during training.", ""]
+  if mode in SUPERSEDED:
+    out += [SUPERSEDED[mode], ""]
   out += [l for l in provenance_lines(scenes) if l] + [""]
   if versions is not None:
     out += version_lines(versions)
@@ -207,6 +219,12 @@ def write_suite(suite, mode, scenes, docs, versions=None, plots=True):
 def headline(scenes, method="halo", versions=None) -> str:
   """One sentence: `method` against nerf_tuned over the scenes where both ran
   (the mean over scenes of the mean over seeds), and the scenes it trails."""
+  stale = [m for m in (method, BASELINE) if versions and not versions[m]["current"]]
+  if stale:  # the headline pools only the newest measured code's runs
+    newest = versions[stale[0]]["newest"]
+    return (f"no figures: the runs of {' and '.join(stale)} are not of the newest measured "
+            f"code's fingerprint ({newest}); rerun them or measure their code "
+            "(docs/benchmark.md).")
   both = sorted(s for s, by in scenes.items() if method in by and BASELINE in by)
   if not both:
     return ""
@@ -246,13 +264,13 @@ def readme_block(all_suites, docs=None, versions=None):
   HALO reaches nerf_tuned's end in at most half its time; for the others,
   each method's final PSNR per scene."""
   shown = {k: v for k, v in sorted(all_suites.items())
-           if k[0] not in ("smoke", "auto", "ingredients")}
+           if k[0] not in ("smoke", "auto", "ingredients") and k[1] not in SUPERSEDED}
   has_front = {k: any(r.get("front") for by in scenes.values() for rs in by.values()
                       for r in rs) for k, scenes in shown.items()}
   out = []
-  if ("cpu", "time") in all_suites:
-    out += ["`cpu/time`, final PSNR: " + headline(
-        all_suites[("cpu", "time")], versions=(versions or {}).get(("cpu", "time"))), ""]
+  if HEADLINE in all_suites:
+    out += [f"`{HEADLINE[0]}/{HEADLINE[1]}`, final PSNR: " + headline(
+        all_suites[HEADLINE], versions=(versions or {}).get(HEADLINE)), ""]
   finals = ["| suite | scene | " + " | ".join(METHOD_ORDER) + " |",
             "|---|---|" + "---|" * len(METHOD_ORDER)]
   for (suite, mode), scenes in shown.items():
