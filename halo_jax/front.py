@@ -23,8 +23,9 @@ def with_params(run: restore.Restored, params, step: int) -> restore.Restored:
   return dataclasses.replace(run, states=states, render=render)
 
 
-def _scores(run: restore.Restored, views, with_lpips: bool) -> dict:
-  r = evaluate.render_views(run.render, views, run.config.eval.chunk)
+def _scores(run: restore.Restored, views, with_lpips: bool, step=None) -> dict:
+  r = evaluate.render_views(run.render, views, run.config.eval.chunk,
+                            desc=f"front {run.stage}" + ("" if step is None else f" @{step}"))
   per = evaluate.score(np.clip(r["rgb"], 0.0, 1.0), views.images, with_lpips)
   return {k: float(np.mean(v)) for k, v in per.items()}
 
@@ -50,6 +51,7 @@ def evaluate_front(workdir: str, with_lpips: bool = True, data_root: str = "") -
     for p in saved:
       params = snapshots.load_params(workdir, name, p["step"], like)
       points.append(dict(p, stage=name,
-                         **_scores(with_params(run, params, p["step"]), views, with_lpips)))
+                         **_scores(with_params(run, params, p["step"]), views, with_lpips,
+                                  p["step"])))
     shown = run
   return sorted(points, key=lambda p: p["at_s"])

@@ -141,10 +141,11 @@ def render_rays(model, sampler_cfg, params, origins, dirs, key, *, near, far,
   return out
 
 
-def render_chunked(fn, origins, dirs, chunk: int, times=None):
+def render_chunked(fn, origins, dirs, chunk: int, times=None, on_chunk=None):
   """Applies a jitted `fn(origins [C, 3], dirs [C, 3][, times [C, 1]]) -> dict of
   [C, ...]` to any number of rays in fixed-size chunks; returns numpy arrays
-  [R, ...]. `times` [..., 1] (dynamic scenes) is passed when given."""
+  [R, ...]. `times` [..., 1] (dynamic scenes) is passed when given;
+  `on_chunk(rays)` is called after each chunk with the rays it rendered."""
   inputs = [np.asarray(origins).reshape(-1, 3), np.asarray(dirs).reshape(-1, 3)]
   if times is not None:
     inputs.append(np.asarray(times, np.float32).reshape(-1, 1))
@@ -154,6 +155,8 @@ def render_chunked(fn, origins, dirs, chunk: int, times=None):
   outs = []
   for i in range(0, n + pad, chunk):
     outs.append(jax.device_get(fn(*(x[i:i + chunk] for x in inputs))))
+    if on_chunk is not None:
+      on_chunk(min(chunk, n - i))
   merged = {k: np.concatenate([o[k] for o in outs])[:n] for k in outs[0]}
   return {k: v.reshape(origins.shape[:-1] + v.shape[1:]) for k, v in merged.items()}
 

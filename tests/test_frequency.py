@@ -1,6 +1,7 @@
 """The frequency criterion on constructed cases, camera pairs, and the search."""
 import json
 import os
+import re
 import subprocess
 import sys
 
@@ -119,6 +120,8 @@ def test_sweep_cli_two_points(scene_root, tmp_path):
     assert r["psnr"] == pytest.approx(ev["psnr"])
   assert rows[0]["psnr"] != rows[1]["psnr"]
   assert "| lo.encoding.L=3,lo.encoding.scale=8 |" in res.stdout
+  # the sweep's bar counts its points on stderr, never on the piped table
+  assert re.search(r"sweep: 100%.*\| 2/2 \[", res.stderr) and "2/2" not in res.stdout
   assert os.path.exists(os.path.join(wd, "sweep.png"))
 
 

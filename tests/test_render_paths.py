@@ -1,6 +1,7 @@
 """Camera paths for every scene kind, path files, and the render command's videos."""
 import json
 import os
+import re
 
 import imageio.v3 as iio
 import numpy as np
@@ -98,10 +99,15 @@ def test_path_files(tmp_path):
     camera_paths.views_for(str(tmp_path / "bad.npy"), ds, 3)
 
 
-def test_render_command_writes_three_videos(scene_root, tmp_path):
+def test_render_command_writes_three_videos(scene_root, tmp_path, capsys):
   wd = str(tmp_path / "run")
   pipeline.run(pipeline_config(scene_root, steps=2), wd)
+  capsys.readouterr()
   w = render_cli.render_path(wd, frames=6, fps=5)
+  # a bar counts the frames and ends with the rays/s rendered
+  err = capsys.readouterr().err.replace("\r", "\n").splitlines()
+  last = [l for l in err if l.startswith("render hi orbit")][-1]
+  assert "6.0/6 frames" in last and re.search(r"[0-9.e+k]+ rays/s\]$", last), last
   ext = ".mp4" if video.has_ffmpeg() else ".gif"
   for key in ("color", "depth", "acc"):
     assert w[key].endswith(f"hi_orbit_{key}{ext}")

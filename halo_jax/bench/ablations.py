@@ -37,7 +37,7 @@ from halo_jax.bench import (benchmark, code_version, fronts_report, report_commo
                             selection, suites, tool)
 from halo_jax.bench.paths import REPO
 from halo_jax.bench.studies import MATCHED_STEPS, STUDIES, Study, Variant  # noqa: F401
-from halo_jax import protocol, runs
+from halo_jax import progress, protocol, runs
 from halo_jax.configure import set_field
 
 FLAGS = flags.FLAGS
@@ -341,14 +341,16 @@ def main(argv):
       todo = _plan(study, FLAGS.only)
     except ValueError as e:
       sys.exit(str(e))
-    failed = []
+    failed, runnable = [], []
     for scene, variant, seed in todo:
       path = result_path(FLAGS.results, FLAGS.study, scene, variant, seed)
-      tag = f"{scene.name}/{variant.name}/seed{seed}"
       state = benchmark._state(path, scene, _terms(study))  # pylint: disable=protected-access
       if FLAGS.dry_run or state != "to run":
-        print(f"{state:8} {tag}", flush=True)
-        continue
+        print(f"{state:8} {scene.name}/{variant.name}/seed{seed}", flush=True)
+      else:
+        runnable.append((scene, variant, seed))
+    for scene, variant, seed in progress.steps(runnable, "runs", f"study {FLAGS.study}"):
+      tag = f"{scene.name}/{variant.name}/seed{seed}"
       try:
         r = run_one(FLAGS.study, study, scene, variant, seed, FLAGS.results, FLAGS.scratch)
       except Exception:  # pylint: disable=broad-except

@@ -29,7 +29,7 @@ from absl import flags, logging
 
 from halo_jax.bench import run_file, selection, suites, tool
 from halo_jax.bench.paths import REPO
-from halo_jax import defaults, protocol, runs
+from halo_jax import defaults, progress, protocol, runs
 from halo_jax.configure import load as method_config, set_field
 
 FLAGS = flags.FLAGS
@@ -205,16 +205,18 @@ def main(argv):
                             FLAGS.scratch)
       print(f"{what:10} {scene.name}/{method}/seed{seed}", flush=True)
     return
-  done, failed = 0, []
+  failed, runnable = [], []
   for scene, method, seed in todo:
     path = result_path(FLAGS.results, FLAGS.suite, FLAGS.mode, scene, method, seed)
     state = _state(path, scene, suite, FLAGS.add_fronts)
-    tag = f"{scene.name}/{method}/seed{seed}"
     if FLAGS.dry_run or state not in ("to run", "no front"):
-      print(f"{state:8} {tag}", flush=True)
-      continue
-    if FLAGS.max_runs and done >= FLAGS.max_runs:
-      break
+      print(f"{state:8} {scene.name}/{method}/seed{seed}", flush=True)
+    else:
+      runnable.append((scene, method, seed))
+  if FLAGS.max_runs:
+    runnable = runnable[:FLAGS.max_runs]
+  for scene, method, seed in progress.steps(runnable, "runs", f"suite {FLAGS.suite}"):
+    tag = f"{scene.name}/{method}/seed{seed}"
     try:
       r = run_one(FLAGS.suite, suite, scene, method, seed, FLAGS.mode, FLAGS.results,
                   FLAGS.scratch)
@@ -224,7 +226,6 @@ def main(argv):
       print(f"FAILED   {tag}", flush=True)
       failed.append(tag)
       continue
-    done += 1
     print(f"ran      {tag}: PSNR {r['psnr']:.2f}  SSIM {r['ssim']:.3f}  LPIPS "
           f"{r['lpips'] if r['lpips'] is None else round(r['lpips'], 3)}  "
           f"{r['wall_s']:.0f} s training, {r['run_seconds']:.0f} s in all", flush=True)

@@ -72,7 +72,8 @@ def run_evaluation(workdir, stage=None, split="test", views="", out=None, data_r
   """Renders, scores and writes; returns the metrics.json contents."""
   run = restore.load(workdir, stage, data_root)
   vs = split_views(run, split, views)
-  r = evaluate.render_views(run.render, vs, run.config.eval.chunk)
+  r = evaluate.render_views(run.render, vs, run.config.eval.chunk,
+                            desc=f"evaluate {run.stage} on {split}")
   rgb = np.clip(r["rgb"], 0.0, 1.0)
   result = {"stage": run.stage, "split": split, "num_views": len(vs.names),
             "float": scores(rgb, vs.images, vs.names, with_lpips),

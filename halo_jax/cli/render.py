@@ -42,7 +42,8 @@ def render_path(workdir, stage=None, path=None, frames=60, fps=20.0, out=None,
   ds = run.dataset
   path = path or ds.facts.path_kinds[0]
   views = camera_paths.views_for(path, ds, frames, downscale)
-  r = evaluate.render_views(run.render, views, run.config.eval.chunk)
+  r = evaluate.render_views(run.render, views, run.config.eval.chunk,
+                            desc=f"render {run.stage} {path}", what="frames")
   out = out or os.path.join(workdir, "render")
   label = os.path.splitext(os.path.basename(path))[0]
   stem = os.path.join(out, f"{run.stage}_{label}")

@@ -19,7 +19,7 @@ import os
 from absl import app, flags
 from ml_collections import config_flags
 
-from halo_jax import config_files, configure, datasets, pipeline, plots, stages, tables
+from halo_jax import config_files, configure, datasets, pipeline, plots, progress, stages, tables
 from halo_jax.frequency import tuning
 from halo_jax.cli import config_of_flags, define_method_flag, launch
 from halo_jax.stages import radiance
@@ -130,7 +130,7 @@ def run(config):
   points = parse_sweeps(config, FLAGS.sweep)
   dataset = datasets.load(config.data, FLAGS.workdir)
   rows = []
-  for point in points:
+  for point in progress.steps(points, "points", "sweep"):
     rows.append(run_point(config, point, FLAGS.workdir, dataset, FLAGS.criterion))
     with open(os.path.join(FLAGS.workdir, "results.json"), "w") as f:
       json.dump({"points": rows}, f, indent=1)

@@ -5,7 +5,7 @@ import os
 import jax.numpy as jnp
 import numpy as np
 
-from halo_jax import image_files, metrics, parallel
+from halo_jax import image_files, metrics, parallel, progress
 from halo_jax import raycast
 
 
@@ -16,14 +16,18 @@ def depth_to_image(depth, near, far):
   return np.repeat((x * 255).round().astype(np.uint8)[..., None], 3, -1)
 
 
-def render_views(eval_fn, views, chunk, indices=None):
-  """Renders views (or views[indices]); returns dict of numpy [V, H, W, ...]."""
+def render_views(eval_fn, views, chunk, indices=None, desc="", what="views"):
+  """Renders views (or views[indices]); returns dict of numpy [V, H, W, ...].
+  With `desc`, a progress bar counts the views (`what`) and shows rays/s."""
   o, d = views.rays()
   t = views.ray_times()
   if indices is not None:
     o, d = o[indices], d[indices]
     t = None if t is None else t[indices]
-  return raycast.render_chunked(eval_fn, o, d, chunk, t)
+  if not desc:
+    return raycast.render_chunked(eval_fn, o, d, chunk, t)
+  with progress.Render(o.shape[0], what, o.shape[1] * o.shape[2], desc) as bar:
+    return raycast.render_chunked(eval_fn, o, d, chunk, t, on_chunk=bar.advance)
 
 
 def score(rgb, target, with_lpips=False):
@@ -65,12 +69,14 @@ def flicker(eval_fn, views, chunk, num_frames, out_dir=None):
   return float(metrics.temporal_flicker(jnp.asarray(frames)))
 
 
-def evaluate(eval_fn, views, chunk, out_dir, near, far, save_images=True, with_lpips=True):
-  """Renders every held-out view, writes <out_dir>/metrics.json (+ images).
+def evaluate(eval_fn, views, chunk, out_dir, near, far, save_images=True, with_lpips=True,
+             desc="evaluate"):
+  """Renders every held-out view (a progress bar named `desc`), writes
+  <out_dir>/metrics.json (+ images).
 
   Returns {'psnr', 'ssim'[, 'lpips'], 'num_views', 'per_view': {name: {metric: value}}}.
   """
-  out = render_views(eval_fn, views, chunk)
+  out = render_views(eval_fn, views, chunk, desc=desc)
   per_metric = score(out["rgb"], views.images, with_lpips)
   result = {k: float(np.mean(v)) for k, v in per_metric.items()}
   result["num_views"] = len(views.names)

@@ -17,7 +17,7 @@ from typing import List, Tuple
 
 import numpy as np
 
-from halo_jax import protocol
+from halo_jax import progress, protocol
 from halo_jax.frequency import spectrum, view_pairs
 from halo_jax.stages import base, collapse
 from halo_jax.stages.state import load
@@ -92,7 +92,7 @@ def tune(config, workdir: str, dataset, run_stages, full_grid: bool = False) -> 
   """
   t = config.tune
   grid, chosen = [], None
-  for L, s in parse_grid(t.grid):
+  for L, s in progress.steps(parse_grid(t.grid), "grid points", "frequency search"):
     wd = point_dir(workdir, L, s)
     c = point_config(config, L, s)
     try:

@@ -336,7 +336,8 @@ def train(ctx: base.StageContext):
   final = functools.partial(render_eval, (params, joint_window(cfg, at)))
   info["eval"] = evaluate.evaluate(final, dataset.test, config.eval.chunk,
                                    os.path.join(stage_dir(ctx.workdir, name), "eval"), 0.0, 1.0,
-                                   config.eval.save_images, config.eval.lpips)
+                                   config.eval.save_images, config.eval.lpips,
+                                   desc=f"{name} eval")
   return StageState(params, step, config, name), info
 
 

@@ -4,7 +4,7 @@ stage (L_ray), L_empty and the 3D joint sampler's L_consist."""
 import jax
 import numpy as np
 
-from halo_jax import camera, models, raycast
+from halo_jax import camera, models, progress, raycast
 from halo_jax.rays import Rays, Targets
 from halo_jax.stages.state import StageState
 
@@ -26,7 +26,9 @@ def on_rays(lo_state: StageState, rays: Rays, *, num_samples, near, far, white_b
             target="max_weight", chunk=8192, block_rays=0) -> Targets:
   """The frozen Lo-NeRF's depth and opacity [R] on `rays` [R] (numpy)."""
   fn = _targets_fn(lo_state, num_samples, near, far, white_background, target, block_rays)
-  out = raycast.render_chunked(fn, rays.origins, rays.dirs, chunk, rays.times)
+  with progress.bar(len(rays.origins), "Lo targets", "ray", unit_scale=True) as bar:
+    out = raycast.render_chunked(fn, rays.origins, rays.dirs, chunk, rays.times,
+                                 on_chunk=bar.update)
   return Targets(rays, out["depth"], out["acc"])
 
 

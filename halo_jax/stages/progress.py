@@ -1,29 +1,38 @@
-"""The training loop's progress bar."""
-import tqdm
+"""The training loop's progress bar (halo_jax/progress.py's bars)."""
+import math
 
+from halo_jax import progress as bars
 from halo_jax.stages.budget import last_step
 
 
 class ProgressBar:
-  """tqdm over training seconds when the stage has a time budget (so its ETA
-  is the budget's), else over steps; shows steps and rays/s either way."""
+  """A bar over the stage's steps, showing steps and rays/s. A stage that
+  measures its own step time (max_seconds, no reference entry) counts its
+  seconds until it has fixed its step count, then its steps (`to_steps`)."""
 
   def __init__(self, name, cfg, start_step, start_wall_s):
-    self.timed = bool(cfg.max_seconds)
+    self.name, self.timed = name, bool(cfg.max_seconds)
     self.rays = cfg.get("batch_rays", 0)  # 0: no rays/s shown
     self.start_step, self.start_wall = start_step, start_wall_s
     if self.timed:
       # a stage resumed past its budget starts full (tqdm cannot format n > total)
       total = round(cfg.max_seconds, 1)
-      self.bar = tqdm.tqdm(total=total, initial=min(round(start_wall_s, 1), total),
-                           desc=name, unit="s", dynamic_ncols=True, mininterval=1.0,
-                           bar_format="{l_bar}{bar}| {n:.0f}/{total:.0f} s "
-                                      "[{elapsed}<{remaining}{postfix}]")
+      self.bar = bars.bar(total, name, "s", initial=min(round(start_wall_s, 1), total),
+                          bar_format="{l_bar}{bar}| {n:.0f}/{total:.0f} s "
+                                     "[{elapsed}<{remaining}{postfix}]")
     else:
       last = last_step(cfg)
-      self.bar = tqdm.tqdm(total=last, initial=min(start_step, last), desc=name, unit="step",
-                           dynamic_ncols=True, mininterval=1.0)
+      self.bar = bars.bar(last, name, "step", initial=min(start_step, last))
     self.shown = {}
+
+  def to_steps(self, step, last, share_s, step_s):
+    """The stage fixed `last` steps at `step_s` s a step: the bar counts steps
+    from `step`, and says so where a floor keeps it past its `share_s` s."""
+    self.bar.close()
+    self.timed = False
+    self.bar = bars.bar(last, self.name, "step", initial=min(step, last))
+    if last > math.ceil(share_s / max(step_s, 1e-9)):
+      self.shown["floor"] = f"{last} steps, past its {share_s:.0f} s share"
 
   def advance(self, step, seconds, wall_s):
     if self.timed:  # the last step ends past the budget: the bar stops at its total

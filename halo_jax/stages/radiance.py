@@ -259,7 +259,8 @@ def train(ctx: base.StageContext):
   eval_dir = os.path.join(stage_dir(ctx.workdir, name), "eval")
   final = make_eval(params, info.get("selected", {}).get("step", step))
   info["eval"] = evaluate.evaluate(final, ds.test, config.eval.chunk, eval_dir, ds.near, ds.far,
-                                   config.eval.save_images, config.eval.lpips)
+                                   config.eval.save_images, config.eval.lpips,
+                                   desc=f"{name} eval")
   if ds.dynamic:
     info["eval"]["flicker"] = evaluate.flicker(
         final, ds.test, config.eval.chunk, config.eval.flicker_frames,
