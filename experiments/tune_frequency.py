@@ -20,13 +20,14 @@ from ml_collections import config_flags
 
 from halo_jax import datasets, pipeline, plots, tables
 from halo_jax.frequency import tuning
-from halo_jax.cli import run_in_workdir
+from halo_jax.cli import config_of_flags, define_method_flag, launch
 
 FLAGS = flags.FLAGS
 config_flags.DEFINE_config_file("config", None, "HALO config (path[:variant]).",
                                 lock_config=True)
 flags.DEFINE_string("workdir", None, "Output folder (one sub-folder per grid point).")
 flags.DEFINE_bool("full_grid", False, "Train and score every grid point.")
+define_method_flag()
 flags.mark_flags_as_required(["config", "workdir"])
 
 
@@ -65,7 +66,8 @@ def report(result, workdir):
 
 def main(argv):
   del argv
-  run_in_workdir(run, FLAGS.config, FLAGS.workdir)
+  with launch(FLAGS.workdir):
+    run(config_of_flags(FLAGS["config"], FLAGS.method))
 
 
 def run(config):
