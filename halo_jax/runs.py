@@ -15,7 +15,9 @@ from halo_jax.stages import collapse
 
 def read_curve(workdir):
   """[[training seconds, held-out PSNR], ...] from a run's metrics.jsonl (the
-  last record of each stage and step, so a resumed run is not counted twice)."""
+  last record of each stage and step, so a resumed run is not counted twice).
+  The seconds are the reference clock's (the same on any machine) where the
+  log has them, else this machine's training seconds."""
   path = os.path.join(workdir, "metrics.jsonl")
   if not os.path.exists(path):
     return []
@@ -24,7 +26,7 @@ def read_curve(workdir):
   points = {}
   for r in recs:
     if r.get("heldout"):
-      points[(r.get("stage"), r.get("step"))] = [r["wall_s"], r["psnr"]]
+      points[(r.get("stage"), r.get("step"))] = [r.get("reference_s", r["wall_s"]), r["psnr"]]
   return sorted(points.values())
 
 

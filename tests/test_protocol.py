@@ -8,7 +8,7 @@ import os
 import pytest
 
 from conftest import tiny_config
-from halo_jax import configure, pipeline, protocol, registry, step_table
+from halo_jax import configure, pipeline, protocol, registry, runs, step_table
 from halo_jax.stages import budget
 
 STEP_S = {"lo": 0.1, "ray": 0.01, "hi": 0.2}
@@ -173,6 +173,7 @@ def test_budgeted_runs_train_exactly_their_counts(scene_root, tmp_path):
   protocol.budget(c, 2.0)
   c.step_table = _table(tmp_path, c, setup_s={"lo": 0.0, "ray": 0.0, "hi": 0.0})
   c.eval.front_s = (0.25, 1.105, 1.5)
+  c.lo.eval_every_s, c.hi.eval_every_s = 0.5, 0.4
   protocol.resolve(c)
   # lo: 1.0 s / 0.1; ray: 0.2 s / 0.01; hi: 0.8 s / 0.2
   assert (c.lo.budget_steps, c.ray.budget_steps, c.hi.budget_steps) == (10, 20, 4)
@@ -187,6 +188,15 @@ def test_budgeted_runs_train_exactly_their_counts(scene_root, tmp_path):
   assert points("lo") == [(0.25, 3)]       # 0.3 s
   assert points("ray") == [(1.105, 11)]    # 1.0 + 11 x 0.01 s
   assert points("hi") == [(1.5, 2)]        # 1.2 + 2 x 0.2 s
+  # the held-out curve's seconds are the reference clock's too
+  offset, step_s = {"lo": 0.0, "hi": 1.2}, {"lo": 0.1, "hi": 0.2}
+  with open(os.path.join(tmp_path, "run", "metrics.jsonl")) as f:
+    held = [json.loads(line) for line in f if '"heldout": true' in line]
+  assert held and all(r["reference_s"] == pytest.approx(offset[r["stage"]]
+                                                        + r["step"] * step_s[r["stage"]])
+                      for r in held)
+  assert [t for t, _ in runs.read_curve(str(tmp_path / "run"))] == pytest.approx(
+      sorted(r["reference_s"] for r in held))
 
 
 def test_a_self_measured_stage_fixes_its_count_once_and_keeps_it(scene_root, tmp_path):

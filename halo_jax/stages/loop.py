@@ -101,7 +101,7 @@ class _Run:
     images = metrics.pop("images", {})  # for TensorBoard only
     metrics = {k: float(v) for k, v in metrics.items()}
     record = dict(stage=self.name, step=step, wall_s=self.wall_offset + self.wall_s,
-                  heldout=True, **metrics)
+                  reference_s=self.clock(step), heldout=True, **metrics)
     if self.select is not None:  # model selection on the validation views
       best, select_fn = self.select
       record["select_psnr"] = float(select_fn(params, step))
