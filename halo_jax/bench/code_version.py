@@ -21,10 +21,10 @@ without "definition" was measured by the earlier definition (3 steps a stage,
 no budget, no evaluation during training); fingerprints of two definitions
 never compare equal, and "current" is judged among DEFINITION's entries.
 
-The fingerprint sees what step-capped runs compute, not how fast: a change
-of speed moves what a time-budgeted run trains without moving the
-fingerprint, so time-budgeted records carry their stages' step rates
-(benchmark.py) and the reports show them.
+The fingerprint sees what the runs compute, not how fast. Under the 'budget'
+protocol speed no longer moves what a run trains (the step table fixes the
+counts); records still carry their stages' step rates, and the reports show
+them, so a slower code is seen.
 """
 import hashlib
 import json

@@ -101,8 +101,9 @@ def version_lines(versions):
   every run set aside (another fingerprint, an unmeasured or modified tree)."""
   out = ["## Code versions", "",
          "Each method's figures on this page pool only its runs of one code fingerprint "
-         "(`halo_jax/bench/code_version.py`: the hash of what step-capped runs of the method "
-         "compute, measured per code tree by `experiments/same_numbers.py --record`). "
+         "(`halo_jax/bench/code_version.py`: the hash of what the method's fingerprint runs, "
+         "short real runs of every stage on every scene kind, compute; measured per code tree "
+         "by `experiments/same_numbers.py --record`). "
          "Current: the newest measured commit "
          f"({next(iter(versions.values()))['newest'] if versions else '?'}) measures the same "
          "fingerprint for the method. The fingerprint does not see speed: the final "

@@ -260,8 +260,6 @@ def train(name: str, cfg, workdir: str, params, loss_fn: Callable, data, seed: i
   step_fn = make_step(loss_fn, tx, cfg.microbatches).lower(run.state, data, base_key).compile()
   compile_s = time.perf_counter() - t0
   bar = progress.ProgressBar(name, cfg, start, wall_s)
-  if run.fixed:  # resumed after fixing its count: the bar counts steps
-    bar.to_steps(start, run.last, cfg.max_seconds, run.measured_step_s)
   try:
     with preemption.training():
       step = _loop(run, step_fn, data, base_key, bar, start, cfg)
@@ -320,7 +318,7 @@ def _loop(run, step_fn, data, base_key, bar, start, cfg):
     run.wall_s += dt
     bar.advance(step, dt, run.wall_s)
     run.fix_count(step)
-    if bar.timed and run.fixed:
+    if bar.timed and run.fixed:  # its count is fixed (or was, before a resume)
       bar.to_steps(step, run.last, cfg.max_seconds, run.measured_step_s)
     run.after_step(step, loss, aux, bar)
     if run.pacer is not None:
