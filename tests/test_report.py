@@ -281,3 +281,9 @@ def test_frequency_calibration_on_validation_views_reads_no_test_view():
   assert hook.data.test_split == "val"
   fern = calibrate_frequency.configure(by["fern_4view"], 300, "/tmp/unused", validation=True)
   assert fern.data.test_views == suites.FERN_VALIDATION_VIEWS
+
+
+def test_a_front_ends_at_its_reference_seconds_not_its_wall_clock():
+  rec = {"front": _front([(15.0, 10.0), (30.0, 12.0)], 240.07, 14.0)}
+  rec["front"][-1]["wall_s"] = 119.7  # a fast machine trained the same steps in half the time
+  assert [t for t, _, _ in fronts_report.front_of(rec)] == [15.0, 30.0, 240.07]
