@@ -108,3 +108,16 @@ def test_failures_page():
   _same(os.path.join(REPO, "docs", "results", "failures.md"), faults.report(rows),
         "python experiments/faults.py")
 
+
+
+def test_the_readme_main_job_table(tmp_path):
+  """The README's main-job table is halo-compare's own table of the committed
+  run (results/main_job/default.json)."""
+  from halo_jax.cli import compare
+  with open(os.path.join(RESULTS, "main_job", "default.json")) as f:
+    run = json.load(f)
+  table = compare.write_report(run["methods"], str(tmp_path), run["num_test_views"])
+  rows = [l for l in table.splitlines() if l.startswith("|")]
+  readme = _read(os.path.join(REPO, "README.md"))
+  assert "\n".join(rows) in readme, "README's main-job table: paste it from " \
+      "`halo-compare --config=configs/default.py --workdir=DIR` (DIR/results.md)"
