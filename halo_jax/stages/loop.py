@@ -254,13 +254,13 @@ def train(name: str, cfg, workdir: str, params, loss_fn: Callable, data, seed: i
     run.snaps = snapshots.Snapshots(workdir, name, snapshot_s, start, run.clock(start))
   data = parallel.replicate(data, mesh)
   base_key = jax.random.PRNGKey(seed)
-  # Compiled before the clock starts: a time budget buys training steps, and
-  # a method of three stages would otherwise pay three compilations.
-  t0 = time.perf_counter()
-  step_fn = make_step(loss_fn, tx, cfg.microbatches).lower(run.state, data, base_key).compile()
-  compile_s = time.perf_counter() - t0
-  bar = progress.ProgressBar(name, cfg, start, wall_s)
+  bar = progress.ProgressBar(name, cfg, start, wall_s)  # says so while the step compiles
   try:
+    # Compiled before the clock starts: a time budget buys training steps, and
+    # a method of three stages would otherwise pay three compilations.
+    t0 = time.perf_counter()
+    step_fn = make_step(loss_fn, tx, cfg.microbatches).lower(run.state, data, base_key).compile()
+    compile_s = time.perf_counter() - t0
     with preemption.training():
       step = _loop(run, step_fn, data, base_key, bar, start, cfg)
   finally:

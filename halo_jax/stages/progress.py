@@ -24,6 +24,8 @@ class ProgressBar:
       last = last_step(cfg)
       self.bar = bars.bar(last, name, "step", initial=min(start_step, last))
     self.shown = {}
+    self.compiling = True  # until the first step: the bar is up while the step compiles
+    self.bar.set_postfix_str("compiling the step")
 
   def to_steps(self, step, last, share_s, step_s):
     """The stage fixed `last` steps at `step_s` s a step: the bar counts steps
@@ -35,6 +37,9 @@ class ProgressBar:
       self.shown["floor"] = f"{last} steps, past its {share_s:.0f} s share"
 
   def advance(self, step, seconds, wall_s):
+    if self.compiling:
+      self.compiling = False
+      self.bar.set_postfix_str("", refresh=False)
     if self.timed:  # the last step ends past the budget: the bar stops at its total
       self.bar.update(max(0.0, min(seconds, self.bar.total - self.bar.n)))
     else:
