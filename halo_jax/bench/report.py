@@ -163,8 +163,9 @@ SUPERSEDED = {"time": (
     "step counts, and their figures, followed the machine's speed that day. They are kept "
     "because the step table of the `budget` protocol was built from seeds 0 and 1 "
     "(`halo-steps --from_records`); the current figures are the `budget` mode's.")}
-# The suite and mode the README's headline is computed from.
-HEADLINE = ("cpu", "budget")
+# The suites and modes the README's headlines are computed from: the test
+# views, then the validation views (whose per-scene table is its page's).
+HEADLINES = (("cpu", "budget"), ("validation", "budget"))
 
 
 def write_suite(suite, mode, scenes, docs, versions=None, plots=True):
@@ -265,13 +266,15 @@ def readme_block(all_suites, docs=None, versions=None):
   HALO reaches nerf_tuned's end in at most half its time; for the others,
   each method's final PSNR per scene."""
   shown = {k: v for k, v in sorted(all_suites.items())
-           if k[0] not in ("smoke", "auto", "ingredients") and k[1] not in SUPERSEDED}
+           if k[0] not in ("smoke", "auto", "ingredients", "validation")
+           and k[1] not in SUPERSEDED}
   has_front = {k: any(r.get("front") for by in scenes.values() for rs in by.values()
                       for r in rs) for k, scenes in shown.items()}
   out = []
-  if HEADLINE in all_suites:
-    out += [f"`{HEADLINE[0]}/{HEADLINE[1]}`, final PSNR: " + headline(
-        all_suites[HEADLINE], versions=(versions or {}).get(HEADLINE)), ""]
+  for key in HEADLINES:
+    if key in all_suites:
+      out += [f"[`{key[0]}/{key[1]}`](docs/results/{key[0]}_{key[1]}.md), final PSNR: "
+              + headline(all_suites[key], versions=(versions or {}).get(key)), ""]
   finals = ["| suite | scene | " + " | ".join(METHOD_ORDER) + " |",
             "|---|---|" + "---|" * len(METHOD_ORDER)]
   for (suite, mode), scenes in shown.items():

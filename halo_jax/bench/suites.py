@@ -121,6 +121,20 @@ VALIDATION_SCENES = VALIDATION_360 + (
           LIGHT_FIELD_METHODS, overrides=(("data.test_views", KNIGHTS_VALIDATION_VIEWS),)),
 )
 
+# HALO against nerf_tuned on every validation scene, on the CPU suite's terms
+# (the same budget, core and step table), each scene's validation views in the
+# test slot: the comparison the test views' headline is checked against
+# without reading them. No fronts: the saved states are for the CPU suite's
+# error-against-time figure.
+VALIDATION = dataclasses.replace(
+    CPU,
+    description=(
+        "halo against nerf_tuned on every validation scene (docs/validation.md), on the CPU "
+        "suite's terms, scored on views that are neither training nor test views."),
+    overrides=CPU.overrides + VALIDATION_VIEWS, front_s=(),
+    scenes=tuple(dataclasses.replace(s, methods=("nerf_tuned", "halo"))
+                 for s in VALIDATION_SCENES))
+
 # A few seconds per run: the benchmark's own test and a quick look at the machinery.
 SMOKE = Suite(
     description="Two methods on the built-in scene for a few seconds (tests).",
@@ -173,4 +187,5 @@ INGREDIENTS = dataclasses.replace(
     scenes=tuple(Scene(name, _LEGO, 1, "nerf_synthetic/lego", (method,), changes)
                  for name, method, changes in INGREDIENT_VARIANTS))
 
-SUITES = {"cpu": CPU, "smoke": SMOKE, "auto": AUTO, "ingredients": INGREDIENTS}
+SUITES = {"cpu": CPU, "validation": VALIDATION, "smoke": SMOKE, "auto": AUTO,
+          "ingredients": INGREDIENTS}
