@@ -55,3 +55,15 @@ def split_flags(variant: str, flags=("cpu",)):
   while parts and parts[-1] in flags:
     found.add(parts.pop())
   return parts, found
+
+
+def dotted_fields(tree, prefix: str = "") -> dict:
+  """{'a': {'b': 1}} -> {'a.b': 1}: a nested dict (a config's to_dict(), the
+  command line's overrides) as the dotted fields `set_field` takes."""
+  out = {}
+  for k, v in tree.items():
+    if isinstance(v, dict):
+      out.update(dotted_fields(v, f"{prefix}{k}."))
+    else:
+      out[prefix + k] = v
+  return out

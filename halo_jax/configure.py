@@ -58,13 +58,3 @@ def set_field(config, dotted: str, value):
   node[leaf] = value
 
 
-def dotted_fields(tree, prefix: str = "") -> dict:
-  """{'a': {'b': 1}} -> {'a.b': 1}: a nested dict (a config's to_dict(), the
-  command line's overrides) as the dotted fields `set_field` takes."""
-  out = {}
-  for k, v in tree.items():
-    if isinstance(v, dict):
-      out.update(dotted_fields(v, f"{prefix}{k}."))
-    else:
-      out[prefix + k] = v
-  return out

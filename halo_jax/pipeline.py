@@ -48,7 +48,8 @@ def run(config, workdir: str, dataset=None, pacer=None) -> dict:
   is refused). info holds the stage's training seconds ('wall_s'), steps,
   skipped steps, the verdict on whether it learned anything ('learned',
   stages/collapse.py) and, for stages that render images, the held-out
-  evaluation. A stage that collapsed is saved and raises collapse.Collapsed.
+  evaluation and its verdict against the best constant image there
+  ('heldout_learned'). A stage that collapsed is saved and raises collapse.Collapsed.
   """
   validate.validate(config)
   config = protocol.resolve(copy.deepcopy(config))  # as configure resolved it, or anew
@@ -84,6 +85,12 @@ def _run(config, workdir, dataset, pacer):
     wall += info["wall_s"]
     spent = info["reference_end_s"]
     info.update(step=int(state.step), cumulative_wall_s=wall)
+    if "eval" in info:
+      # a field can fit its training rays and render background everywhere else;
+      # a measurement, not a judgement of training: short stages get it too
+      info["heldout_learned"] = collapse.heldout(
+          info["eval"]["psnr"], collapse.constant_psnr(dataset.test.images),
+          config[name].collapse.margin_db)
     save(workdir, state)
     if parallel.is_primary():
       info["provenance"] = provenance.collect()

@@ -41,8 +41,9 @@ def run_method(config, workdir, dataset=None) -> dict:
     infos = pipeline.run(config, workdir, dataset)
     final = config.final_stage
   except collapse.Collapsed as e:
-    infos, final = e.infos, e.stage
-    collapsed = {"stage": e.stage, **e.verdict}
+    infos, collapsed = e.infos, {"stage": e.stage, **e.verdict}
+    # the last images the method made (a collapsed ray field renders none)
+    final = [n for n, i in infos.items() if "eval" in i][-1]
   last = infos[final]["eval"]
   rounded = {n: {k: round(v, 5) for k, v in m.items()} for n, m in last["per_view"].items()}
   return {"psnr": last["psnr"], "ssim": last["ssim"], "lpips": last.get("lpips"),
@@ -64,6 +65,8 @@ def run_method(config, workdir, dataset=None) -> dict:
                          **({"psnr": i["eval"]["psnr"]} if "eval" in i else {})}
                      for n, i in infos.items()},
           "learned": {n: i["learned"]["verdict"] for n, i in infos.items() if "learned" in i},
+          "heldout_learned": {n: i["heldout_learned"]["verdict"] for n, i in infos.items()
+                              if "heldout_learned" in i},
           **({"collapsed": collapsed} if collapsed else {}),
           "curve": read_curve(workdir),
           **_frequency_choice(workdir),
@@ -73,11 +76,17 @@ def run_method(config, workdir, dataset=None) -> dict:
 
 
 def learned_cell(record: dict) -> str:
-  """'yes', 'collapsed (<stage>)' or '-' (no verdict: a smoke run or an old record)."""
+  """'yes', 'collapsed (<stage>)', 'constant on held-out views (<stage>)',
+  'unjudged' or '-' (no verdict: a smoke run or an old record)."""
   if "collapsed" in record:
     return f"collapsed ({record['collapsed']['stage']})"
+  flat = [n for n, v in (record.get("heldout_learned") or {}).items() if v == collapse.COLLAPSED]
+  if flat:
+    return f"constant on held-out views ({', '.join(flat)})"
   verdicts = set((record.get("learned") or {}).values())
-  return "yes" if collapse.LEARNED in verdicts else "-"
+  if collapse.LEARNED in verdicts:
+    return "yes"
+  return "unjudged" if collapse.UNJUDGED in verdicts else "-"
 
 
 def _frequency_choice(workdir):

@@ -21,6 +21,8 @@ import hashlib
 import json
 import os
 
+from halo_jax import config_files
+
 TABLE = os.path.join(os.path.dirname(__file__), "step_table.json")
 
 # Stage fields that do not change a step's time (dotted, under the stage).
@@ -39,20 +41,10 @@ TIMELESS = frozenset((
 WEIGHTS = ("weight", "consist_weight", "color_weight", "nerf_consist_weight")
 
 
-def _flat(tree, prefix=""):
-  out = {}
-  for k, v in tree.items():
-    if isinstance(v, dict):
-      out.update(_flat(v, f"{prefix}{k}."))
-    else:
-      out[prefix + k] = v
-  return out
-
-
 def _sizes(config, name) -> dict:
   """The stage's fields that set its step time, dotted."""
   out = {}
-  for field, value in _flat(config[name].to_dict()).items():
+  for field, value in config_files.dotted_fields(config[name].to_dict()).items():
     if field in TIMELESS:
       continue
     if field.rsplit(".", 1)[-1] in WEIGHTS:

@@ -9,7 +9,7 @@ import sys
 
 import pytest
 
-from halo_jax import configure, protocol, step_table
+from halo_jax import config_files, protocol, step_table
 from halo_jax.bench import code_version, fingerprint, suites
 from halo_jax.stages import collapse
 from halo_jax.stages.order import needed
@@ -49,7 +49,7 @@ def test_only_sizes_change_from_the_suite_run(tmp_path):
   scene = SCENES["lego_8view"]
   full = fingerprint.suite_config(scene, "halo", str(tmp_path))
   c, _ = fingerprint.configure(scene, "halo", str(tmp_path))
-  a, b = (configure.dotted_fields(x.to_dict()) for x in (full, c))
+  a, b = (config_files.dotted_fields(x.to_dict()) for x in (full, c))
   sized = {f"{n}.{f}" for n in ("lo", "ray", "hi") for f, _ in fingerprint.STAGE_SIZES}
   sized |= {f for f, _ in fingerprint.CONFIG_SIZES}
   bookkeeping = {"step_table", "eval.lpips", "eval.save_images", "eval.flicker_frames"}

@@ -31,6 +31,7 @@ from halo_jax.bench import run_file, selection, suites, tool
 from halo_jax.bench.paths import REPO
 from halo_jax import defaults, progress, protocol, runs
 from halo_jax.configure import load as method_config, set_field
+from halo_jax.stages import collapse
 
 FLAGS = flags.FLAGS
 flags.DEFINE_enum("suite", "cpu", sorted(suites.SUITES), "Suite to run.")
@@ -43,6 +44,8 @@ flags.DEFINE_integer("max_runs", 0, "Stop after this many runs (0: all).")
 flags.DEFINE_bool("dry_run", False, "Print the plan and each run's state; train nothing.")
 flags.DEFINE_bool("score_validation", False, "Train nothing: add the validation scores to "
                   "finished runs' files that lack them, from their workdirs in --scratch.")
+flags.DEFINE_bool("judge_heldout", False, "Train nothing: add the held-out verdict (a stage "
+                  "no better than a constant image) to finished runs' files that lack it.")
 flags.DEFINE_bool("add_fronts", False, "Rerun finished runs whose file has no front although "
                   "the suite records one (files from before fronts); the new file replaces it.")
 flags.DEFINE_integer("first_core", -1, "With a suite pinned to k cores: the first of them "
@@ -111,7 +114,10 @@ def score_validation(workdir: str, record: dict, split: str) -> dict:
     if "psnr" not in stage:
       continue
     r = evaluation.run_evaluation(workdir, name, split, "all", with_lpips=False)
-    stages[name] = {k: r["float"][k] for k in ("psnr", "ssim")}
+    margin = record["resolved_config"][name]["collapse"]["margin_db"]
+    stages[name] = {**{k: r["float"][k] for k in ("psnr", "ssim")},
+                    "learned": collapse.heldout(r["float"]["psnr"], r["constant_psnr"],
+                                                margin)["verdict"]}
     num_views = r["num_views"]
   return {"split": split, "num_views": num_views, "stages": stages}
 
@@ -171,6 +177,29 @@ def add_validation(suite_name, scene, method, seed, mode, results, scratch) -> s
   return "scored"
 
 
+def judge_heldout(suite_name, suite, scene, method, seed, mode, results, scratch) -> str:
+  """Adds the held-out verdict (stages/collapse.py: heldout) to a finished
+  run's file made before runs carried it: each rendering stage's held-out
+  PSNR in the record against the best constant image of the same views,
+  loaded as the run loaded them. Nothing is rendered. Returns what it did."""
+  path = result_path(results, suite_name, mode, scene, method, seed)
+  if not os.path.exists(path):
+    return "nothing"
+  with open(path) as f:
+    record = json.load(f)
+  if "heldout_learned" in record:
+    return "has it"
+  from halo_jax import datasets
+  c = configure(suite, scene, method, seed, mode, scratch)
+  views = datasets.load(c.data, "").test.images
+  constant = collapse.constant_psnr(views)
+  record["heldout_learned"] = {
+      n: collapse.heldout(s["psnr"], constant, c[n].collapse.margin_db)["verdict"]
+      for n, s in record["stages"].items() if "psnr" in s}
+  run_file.write_json(path, record)
+  return "judged"
+
+
 def _state(path, scene, suite, add_fronts=False):
   if os.path.exists(path):
     if add_fronts and suite.front_s:
@@ -199,6 +228,12 @@ def main(argv):
     todo = plan(suite, FLAGS.only)
   except ValueError as e:
     sys.exit(str(e))
+  if FLAGS.judge_heldout:
+    for scene, method, seed in todo:
+      what = judge_heldout(FLAGS.suite, suite, scene, method, seed, FLAGS.mode, FLAGS.results,
+                           FLAGS.scratch)
+      print(f"{what:10} {scene.name}/{method}/seed{seed}", flush=True)
+    return
   if FLAGS.score_validation:
     for scene, method, seed in todo:
       what = add_validation(FLAGS.suite, scene, method, seed, FLAGS.mode, FLAGS.results,

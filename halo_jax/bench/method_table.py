@@ -12,7 +12,7 @@ import sys
 
 from absl import flags
 
-from halo_jax import configure, pipeline, protocol
+from halo_jax import config_files, configure, pipeline, protocol
 from halo_jax.bench import tool
 from halo_jax.registry import ConfigError
 
@@ -62,7 +62,7 @@ def resolve(spec):
     except ConfigError as e:
       refused[name] = str(e)
       continue
-    ran[name] = (configure.dotted_fields(c.to_dict()), set(pipeline.needed(c)))
+    ran[name] = (config_files.dotted_fields(c.to_dict()), set(pipeline.needed(c)))
   return ran, refused
 
 

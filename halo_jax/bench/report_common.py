@@ -29,17 +29,24 @@ def mean_pm(v, digits=2):
 def collapse_lines(tagged_records):
   """Markdown lines counting the collapse check's verdicts
   (halo_jax/stages/collapse.py) over [(tag, record)]: how many runs learned,
-  which collapsed (tag and stage), and how many carry no verdict (recorded
-  before the check, or too short to judge)."""
+  which collapsed (tag and stage), which render no better than a constant
+  image on held-out views, and how many carry no verdict (recorded before
+  the check existed, or too short to judge)."""
   collapsed = [(t, r["collapsed"]) for t, r in tagged_records if "collapsed" in r]
   learned = sum(1 for _, r in tagged_records
                 if "collapsed" not in r and "learned" in (r.get("learned") or {}).values())
   other = len(tagged_records) - learned - len(collapsed)
-  lines = [f"Collapse check (each radiance stage's training PSNR against the best constant "
-           f"image's; halo_jax/stages/collapse.py): {learned} run(s) learned, "
+  flat = [(t, n) for t, r in tagged_records
+          for n, v in (r.get("heldout_learned") or {}).items() if v == "collapsed"]
+  lines = [f"Collapse check (each stage's training fit against the best constant "
+           f"prediction's; halo_jax/stages/collapse.py): {learned} run(s) learned, "
            f"**{len(collapsed)} collapsed**, {other} without a verdict (recorded before the "
-           "check existed, or too short to judge)."]
+           "check existed, or too short past the crop to judge)."
+           + (f" **{len(flat)} stage(s) no better than a constant image on held-out views.**"
+              if flat else "")]
   for tag, c in collapsed:
     lines.append(f"- collapsed: {tag}, stage `{c['stage']}` ({c['train_psnr']:.2f} dB against "
                  f"the constant's {c['constant_psnr']:.2f})")
+  for tag, stage in flat:
+    lines.append(f"- constant on held-out views: {tag}, stage `{stage}`")
   return lines

@@ -26,7 +26,7 @@ from ml_collections import config_flags
 from halo_jax.bench import run_file, throughput_report, tool, trace_summary
 from halo_jax.bench.paths import REPO
 from halo_jax import camera, geometry, models, provenance, ray_fields
-from halo_jax import configure, raycast
+from halo_jax import config_files, configure, raycast
 from halo_jax.cli import config_of_flags
 from halo_jax.rays import Pixels, Rays, Targets
 from halo_jax.stages import batches, radiance, ray, terms
@@ -165,7 +165,7 @@ def main(argv):
 def measure_all(c):
   """Times each stage's step and a render chunk of config `c` (HALO's); writes
   and prints the result file."""
-  overrides = configure.dotted_fields(config_flags.get_override_values(FLAGS["config"]))
+  overrides = config_files.dotted_fields(config_flags.get_override_values(FLAGS["config"]))
   near, far = c.data.near, c.data.far
   n_data = 80000
   o, d = _rays(n_data)

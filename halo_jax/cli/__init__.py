@@ -16,7 +16,7 @@ import contextlib
 from absl import flags, logging
 from ml_collections import config_flags
 
-from halo_jax import configure, methods, user_errors, workdir_lock
+from halo_jax import config_files, configure, methods, user_errors, workdir_lock
 
 
 def define_method_flag():
@@ -30,7 +30,7 @@ def config_of_flags(config_flag, method: str):
   set again after the method (config_flags set them on the scene, before the
   method existed), so that an override wins over what the method sets.
   config_flag: FLAGS['config']."""
-  overrides = configure.dotted_fields(config_flags.get_override_values(config_flag))
+  overrides = config_files.dotted_fields(config_flags.get_override_values(config_flag))
   return configure.as_method(config_flag.value, method, overrides)
 
 

@@ -21,6 +21,7 @@ import numpy as np
 from halo_jax import datasets, evaluate, provenance, restore
 from halo_jax.evaluate import predictions
 from halo_jax.cli import launch
+from halo_jax.stages import collapse
 
 FLAGS = flags.FLAGS
 
@@ -78,6 +79,8 @@ def run_evaluation(workdir, stage=None, split="test", views="", out=None, data_r
   result = {"stage": run.stage, "split": split, "num_views": len(vs.names),
             "float": scores(rgb, vs.images, vs.names, with_lpips),
             "uint8": scores(to_8bit(rgb), to_8bit(vs.images), vs.names, with_lpips),
+            # the best constant image's PSNR on these views (stages/collapse.py)
+            "constant_psnr": collapse.constant_psnr(vs.images),
             "note": "float: renders clipped to [0, 1] against the loaded ground truth, as "
                     "training evaluates; uint8: both rounded to 8 bits first."}
   out = out or os.path.join(workdir, run.stage, f"evaluate-{split}")

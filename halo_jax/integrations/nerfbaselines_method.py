@@ -38,7 +38,8 @@ from absl import logging as absl_logging
 import ml_collections
 import numpy as np
 
-from halo_jax import checkpoint as checkpoints, configure, pipeline, protocol, raycast, restore
+from halo_jax import checkpoint as checkpoints, config_files, configure, pipeline, protocol, raycast
+from halo_jax import restore
 from halo_jax.datasets.base import Dataset, Similarity, Views
 from halo_jax.geometry import Geometry
 from halo_jax.integrations import nerfbaselines_scene as nb_scene
@@ -161,7 +162,7 @@ class HaloMethod:
     return {**method_info(), "num_iterations": self.num_iterations(),
             "loaded_step": self.loaded_step, "loaded_checkpoint": self.checkpoint,
             "batch_size": int(self.config.hi.batch_rays), "eval_batch_size": self.config.eval.chunk,
-            "hparams": configure.dotted_fields(self.config.to_dict())}
+            "hparams": config_files.dotted_fields(self.config.to_dict())}
 
   def num_iterations(self) -> int:
     """One iteration a training step of each stage the method's output needs."""

@@ -328,7 +328,7 @@ def train(ctx: base.StageContext):
                                   init_params(model, ray_model, config.seed), step_loss,
                                   data, config.seed, eval_fn, ctx.log, ctx.wall_offset, ctx.mesh,
                                   snapshot_s=ctx.front_s, pacer=ctx.pacer,
-                                  constant_psnr=collapse.constant_psnr(dataset.train.images),
+                                  baseline=collapse.pixels_baseline(dataset.train.images),
                                   select_fn=base.select_fn(
                                       ctx, lambda p, s: functools.partial(
                                           render_eval, (p, joint_window(cfg, s)))))

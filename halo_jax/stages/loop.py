@@ -212,7 +212,7 @@ class _Run:
 def train(name: str, cfg, workdir: str, params, loss_fn: Callable, data, seed: int,
           eval_fn: Optional[Callable] = None, log: Optional[MetricsLog] = None,
           wall_offset: float = 0.0, mesh=None, snapshot_s=(), pacer=None,
-          constant_psnr: Optional[float] = None, select_fn: Optional[Callable] = None):
+          baseline: Optional[collapse.Baseline] = None, select_fn: Optional[Callable] = None):
   """Trains `params` on `loss_fn` for cfg.steps (or cfg.max_seconds, but never
   fewer than cfg.min_steps) and returns them.
 
@@ -234,7 +234,8 @@ def train(name: str, cfg, workdir: str, params, loss_fn: Callable, data, seed: i
     snapshot_s: the method's training seconds (wall_offset included) at which
       to save the parameters for its error-against-time front (snapshots.py).
     pacer: a pacing.Pacer whose driver grants every step (or None: free).
-    constant_psnr: collapse.constant_psnr of the training pixels (None: no images).
+    baseline: what the collapse check judges the stage against
+      (collapse.pixels_baseline of the training pixels; None: not judged).
     select_fn: (params, step) -> PSNR on validation views at every held-out
       evaluation; the best-scoring parameters are returned (selection.py).
 
@@ -267,7 +268,7 @@ def train(name: str, cfg, workdir: str, params, loss_fn: Callable, data, seed: i
     bar.close()  # before any error line, so it starts a line of its own
     if board is not None:
       board.close()
-  info = _info(run, start, step, compile_s, constant_psnr)
+  info = _info(run, start, step, compile_s, baseline)
   return _chosen(run, info), step, info
 
 
@@ -282,7 +283,7 @@ def _chosen(run, info):
   return best.params(final)
 
 
-def _info(run, start, step, compile_s, constant_psnr) -> dict:
+def _info(run, start, step, compile_s, baseline) -> dict:
   """`train`'s info of a finished loop that began at `start` and ended at `step`."""
   cfg = run.cfg
   return {"wall_s": run.wall_s, "skipped": int(run.state["skipped"]), "compile_s": compile_s,
@@ -294,8 +295,11 @@ def _info(run, start, step, compile_s, constant_psnr) -> dict:
                                 and step <= cfg.min_steps),
           **({"fixed_steps": run.last, "measured_step_s": run.measured_step_s}
              if run.measured_step_s else {}),
-          "learned": collapse.verdict(run.log.training_psnr(run.name), constant_psnr,
-                                      **cfg.collapse)}
+          "learned": collapse.judge(
+              run.log.training_psnr(run.name, baseline.key if baseline else "psnr"), baseline,
+              # the crop's and the foreground start's batches are not the constant's pixels
+              judged_from=max(cfg.get("precrop_steps", 0), cfg.get("fg_steps", 0)),
+              **cfg.collapse)}
 
 
 def _loop(run, step_fn, data, base_key, bar, start, cfg):

@@ -18,9 +18,10 @@ class MetricsLog:
     with open(self.path, "a") as f:
       f.write(json.dumps(record) + "\n")
 
-  def training_psnr(self, stage: str) -> list:
+  def training_psnr(self, stage: str, key: str = "psnr") -> list:
     """[(step, batch PSNR)] of `stage`'s training records, in step order (the
-    last of each step: a resumed run's records replace the killed run's)."""
+    last of each step: a resumed run's records replace the killed run's);
+    `key` reads another logged figure instead."""
     if not os.path.exists(self.path):
       return []
     by_step = {}
@@ -30,8 +31,8 @@ class MetricsLog:
           rec = json.loads(line)
         except json.JSONDecodeError:
           continue
-        if rec.get("stage") == stage and not rec.get("heldout") and "psnr" in rec:
-          by_step[int(rec["step"])] = float(rec["psnr"])
+        if rec.get("stage") == stage and not rec.get("heldout") and key in rec:
+          by_step[int(rec["step"])] = float(rec[key])
     return sorted(by_step.items())
 
   def drop_after(self, stage: str, step: int) -> None:

@@ -252,7 +252,7 @@ def train(ctx: base.StageContext):
   params, step, info = loop.train(name, cfg, ctx.workdir, params, step_loss, data, config.seed,
                                   eval_fn, ctx.log, ctx.wall_offset + bank_s, ctx.mesh,
                                   snapshot_s=ctx.front_s, pacer=ctx.pacer,
-                                  constant_psnr=collapse.constant_psnr(ds.train.images),
+                                  baseline=collapse.pixels_baseline(ds.train.images),
                                   select_fn=base.select_fn(ctx, make_eval))
   info["wall_s"] += bank_s
   info["setup_s"] = bank_s

@@ -10,7 +10,7 @@ import numpy as np
 
 from halo_jax import geometry, losses, models, parallel, ray_fields, raycast, registry, rng
 from halo_jax.rays import Rays, Targets
-from halo_jax.stages import base, budget, lo_targets, loop, microbatch
+from halo_jax.stages import base, budget, collapse, lo_targets, loop, microbatch
 from halo_jax.stages.state import StageState
 
 TEACHER = "lo"  # the stage whose depth and opacity the ray field learns
@@ -111,10 +111,16 @@ def train(ctx: base.StageContext):
                                 far=ds.far, n_train=cfg.batch_rays - n_random,
                                 n_random=n_random, mesh=ctx.mesh)
   cfg = budget.minus_seconds(cfg, target_s)
+  # each target source with its rays per batch, as loss_fn draws them
+  shares = [(src, n) for src, n in ((data.train, cfg.batch_rays - n_random),
+                                    (data.random, n_random)) if n]
+  baseline = collapse.targets_baseline([np.asarray(src.depth) for src, _ in shares],
+                                       [np.asarray(src.acc) for src, _ in shares], ds.far,
+                                       [n for _, n in shares])
   params, step, info = loop.train(name, cfg, ctx.workdir, init_params(config, name, ds),
                                   step_loss, data, config.seed, None, ctx.log,
                                   ctx.wall_offset + target_s, ctx.mesh,
-                                  snapshot_s=ctx.front_s, pacer=ctx.pacer)
+                                  snapshot_s=ctx.front_s, pacer=ctx.pacer, baseline=baseline)
   info["wall_s"] += target_s
   info.update(target_s=target_s, setup_s=target_s, target_rays=int(data.train.depth.shape[0]))
   return StageState(params, step, config, name), info
