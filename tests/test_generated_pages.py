@@ -110,6 +110,14 @@ def test_failures_page():
 
 
 
+def test_viewer_latency_page():
+  from experiments import viewer_check
+  with open(os.path.join(RESULTS, "viewer_latency.json")) as f:
+    record = json.load(f)
+  _same(os.path.join(DOCS, "viewer_latency.md"), viewer_check.report(record),
+        "python experiments/viewer_check.py (it re-times the viewer)")
+
+
 def test_the_readme_main_job_table(tmp_path):
   """The README's main-job table is halo-compare's own table of the committed
   run (results/main_job/default.json)."""
