@@ -159,6 +159,12 @@ def measure_commit(commit: str) -> dict:
                      capture_output=True)
 
 
+def figures_only(results: dict) -> dict:
+  """The runs' figures without the code tree each was made at (what a
+  fingerprint hashes is the figures; which code made them is the record's)."""
+  return {k: {f: x for f, x in v.items() if f != "code_tree"} for k, v in results.items()}
+
+
 def run_shards() -> dict:
   """Runs --procs copies of this script, shard i pinned to the i-th allowed
   core, into <out>.<i>; returns their figures merged."""
@@ -184,7 +190,7 @@ def main(argv):
   if FLAGS.commit:
     sha = subprocess.run(["git", "-C", code_version.REPO, "rev-parse", FLAGS.commit],
                          capture_output=True, text=True, check=True).stdout.strip()
-    results = measure_commit(sha)
+    results = figures_only(measure_commit(sha))
     if FLAGS.record:
       print(code_version.record(sha, results, FLAGS.views))
     return
@@ -205,9 +211,16 @@ def main(argv):
   for line in missing:
     print(f"skipped {line}")
   results = {}
-  if os.path.exists(FLAGS.out):  # a stopped launch: keep the runs it finished
+  # a stopped launch's runs are kept, but only those of this very code: a file
+  # from another commit (or a modified tree) would lend its figures to this one
+  git = provenance.git_state()
+  tree = None if git["code_dirty"] else git["code_tree"]
+  if os.path.exists(FLAGS.out):
     with open(FLAGS.out) as f:
-      results = json.load(f)
+      held = json.load(f)
+    results = {k: v for k, v in held.items() if tree and v.get("code_tree") == tree}
+    if len(results) < len(held):
+      print(f"{FLAGS.out}: {len(held) - len(results)} run(s) of other code not reused")
   if FLAGS.procs > 1:
     results.update(run_shards())
   else:
@@ -217,7 +230,7 @@ def main(argv):
       if i % num_shards != shard or key in results:
         continue
       with tempfile.TemporaryDirectory(prefix="same_numbers_") as workdir:
-        results[key] = run_one(scene, method, workdir)
+        results[key] = dict(run_one(scene, method, workdir), code_tree=tree)
       r = results[key]
       print(f"{key}: steps {r['steps']}, psnr {[round(p, 4) for p in r['psnr']]}"
             + (f", collapsed at {r['collapsed']}" if r["collapsed"] else ""), flush=True)
@@ -225,9 +238,10 @@ def main(argv):
         json.dump(results, f, indent=1)
   with open(FLAGS.out, "w") as f:
     json.dump(results, f, indent=1)
+  results = figures_only(results)
   if FLAGS.compare:
     with open(FLAGS.compare) as f:
-      before = json.load(f)
+      before = figures_only(json.load(f))
     before = {k: v for k, v in before.items() if k in results}
     lines = differences(before, results, FLAGS.tolerance_db)
     print("\n".join(lines) if lines else f"same numbers on all {len(results)} runs")

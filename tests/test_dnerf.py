@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from conftest import assert_trained, SHARED_DATA, tiny_config
-from halo_jax import configure, datasets, methods, metrics, models, pipeline, stages
+from halo_jax import configure, datasets, methods, metrics, models, pipeline, raycast, stages
 from halo_jax.datasets import blender
 from halo_jax.stages import transfer
 
@@ -202,6 +202,16 @@ def test_every_method_trains_on_a_dynamic_scene(method, scene_root, tmp_path):
   assert np.isfinite(infos["hi"]["eval"]["psnr"])
   for name in infos:  # FreeNeRF's masked bands make its first steps slow: 5% is the bar
     assert_trained(wd, name, factor=0.95)
+  # the trained method reads time: one view's rays at t = 0 and t = 1 differ
+  # (a method that dropped t anywhere would render them bit for bit alike)
+  from halo_jax import restore  # pylint: disable=g-import-not-at-top
+  run = restore.load(wd, "hi")
+  o, d = run.dataset.test.rays()
+  o, d = o[:1, ::4, ::4], d[:1, ::4, ::4]
+  at = [raycast.render_chunked(run.render, o, d, 1024, np.full(o.shape[:3] + (1,), t,
+                                                                np.float32))["rgb"]
+        for t in (0.0, 1.0)]
+  assert np.abs(at[0] - at[1]).max() > 1e-6
 
 
 def test_deform_field_band_mask_hides_high_bands():

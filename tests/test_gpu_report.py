@@ -79,7 +79,8 @@ def test_rescore_picks_the_named_stage(tmp_path, monkeypatch):
     d.mkdir(parents=True)
     (d / "metrics.json").write_text("{}")
     panel = to8(np.full((8, 8, 3), value))
-    iio.imwrite(d / "v0.png", np.concatenate([to8(truth[0]), panel, panel], 1))
+    depth = to8(np.full((8, 8, 3), 0.95))  # unlike the render: reading it would fail
+    iio.imwrite(d / "v0.png", np.concatenate([to8(truth[0]), panel, depth], 1))
 
   class Views:
     names = ["v0"]

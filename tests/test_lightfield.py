@@ -328,6 +328,14 @@ def test_knights_views_and_bounds():
   # grid_signs (-1, -1): u, v fall as the column and row grow
   np.testing.assert_allclose(ds.train.uv, [[0.5, 0.5], [-0.5, 0.5], [0.5, -0.5], [-0.5, -0.5]])
   assert ds.test.images.shape == (4, 256, 256, 3)
+  # the bounds, in closed form: a disparity of p px per grid step over 16 grid
+  # steps across u in [-1, 1] of a 256-px-wide image is an EPI slope of
+  # p * (2 / 256) / (2 / 16); theta = atan2(1, slope), the nearest point
+  # (the largest disparity) at the smallest theta
+  lo_px, hi_px = c.data.disparity_px
+  assert ds.near == pytest.approx(np.arctan2(1.0, hi_px * 16 / 256), abs=1e-12)
+  assert ds.far == pytest.approx(np.arctan2(1.0, lo_px * 16 / 256), abs=1e-12)
+  assert 0 < ds.near < np.pi / 2 < ds.far < np.pi
 
 
 def _box(x, r):
