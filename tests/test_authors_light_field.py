@@ -201,11 +201,13 @@ def test_halo_authors_on_blender_is_their_static_recipe():
   hi = c.hi
   assert c.stages == "lo,ray,hi" and c.ray.depth_target == "max_weight_far"
   assert hi.sampler.near_only and not hi.model.use_viewdirs and hi.precrop_steps == 1000
-  assert (hi.empty.density_noise, hi.empty.num_samples, hi.empty.start_step) == (1.0, 128, 5000)
-  # lego: Hi from Lo but for the encoding's layers, 5e-3 falling with power 1 to 5e-5
+  # L_empty from step 0 on 8-view lego (lf_hf_nerf_8view_gpu.py:17: empty_start_iter='0')
+  assert (hi.empty.density_noise, hi.empty.num_samples, hi.empty.start_step) == (1.0, 128, 0)
+  # lego: Hi from Lo but for the encoding's layers, 5e-3 falling with power 1 to
+  # their absolute min_lr (nelf_nerf_synthetic_hotdog_sparse_hfnerf.py: Poly, min_lr=5e-6)
   assert hi.init_from_lo and hi.init_skip_fresh and not hi.encoding.with_lo
   assert (hi.lr_init, hi.lr_power) == (pytest.approx(5e-3), 1.0)
-  assert hi.lr_final == pytest.approx(5e-5)
+  assert hi.lr_final == 5e-6
   # their loaded rate as it stands, also where the CPU config's base rate is 4x the paper's
   assert configure.load("configs/blender.py:lego_8view_cpu", "halo_authors").hi.lr_init == 5e-3
   drums = configure.load("configs/blender.py:drums_8view", "halo_authors").hi
@@ -214,6 +216,11 @@ def test_halo_authors_on_blender_is_their_static_recipe():
   one = configure.load("configs/blender.py:lego_oneside", "halo_authors")
   assert (one.lo.steps, one.ray.steps, one.hi.steps) == (4200, 42000, 28000)
   assert one.hi.precrop_steps == 1000 and one.hi.empty.weight == 0.01
+  # lf_hf_nerf_oneside.py sets no empty_start_iter: the hfnerf config's 5e3
+  assert one.hi.empty.start_step == 5000 and one.hi.lr_final == 5e-6
+  for scene in ("chair", "ship", "materials", "hotdog"):
+    assert configure.load(f"configs/blender.py:{scene}_8view",
+                          "halo_authors").hi.empty.start_step == 0
 
 
 def test_poly_schedule_is_mmcvs():
