@@ -78,7 +78,8 @@ LLFF_UV_STD = 8.0 / (2 * math.pi)   # their 8 rad per scene unit, in cycles
 LLFF_ST_SCALE = 8.0                 # BaseEmbedder scale of (s, t)
 LLFF_DEPTH_SCALE = 1.0              # ... and of the depth fraction
 LLFF_WINDOW_FINAL = 0.1
-# their window narrows in 12k iterations, 0.6 of the 20k their light fields take
+# their LLFF window narrows in 12k iterations, knights' in 20k (of its 80k):
+# a share of the light-field window's length (hi.joint.alpha_steps)
 LLFF_WINDOW_SHARE = 0.6
 
 
