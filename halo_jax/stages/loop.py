@@ -234,8 +234,7 @@ def train(name: str, cfg, workdir: str, params, loss_fn: Callable, data, seed: i
     snapshot_s: the method's training seconds (wall_offset included) at which
       to save the parameters for its error-against-time front (snapshots.py).
     pacer: a pacing.Pacer whose driver grants every step (or None: free).
-    baseline: what the collapse check judges the stage against
-      (collapse.pixels_baseline of the training pixels; None: not judged).
+    baseline: the collapse check's collapse.Baseline (None: not judged).
     select_fn: (params, step) -> PSNR on validation views at every held-out
       evaluation; the best-scoring parameters are returned (selection.py).
 
