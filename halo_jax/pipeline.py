@@ -72,6 +72,7 @@ def _run(config, workdir, dataset, pacer):
   # wall: this machine's training seconds; spent: the method's reference
   # seconds (halo_jax/protocol.py), which place the next stage's front points
   states, infos, wall, spent = {}, {}, 0.0, 0.0
+  heldout_constant = None  # the best constant image's PSNR on the held-out views
   until = budget.shares_until(config) if config.protocol == "budget" else {}
   for name in needed(config):
     if name not in run_now:
@@ -88,9 +89,10 @@ def _run(config, workdir, dataset, pacer):
     if "eval" in info:
       # a field can fit its training rays and render background everywhere else;
       # a measurement, not a judgement of training: short stages get it too
-      info["heldout_learned"] = collapse.heldout(
-          info["eval"]["psnr"], collapse.constant_psnr(dataset.test.images),
-          config[name].collapse.margin_db)
+      if heldout_constant is None:
+        heldout_constant = collapse.constant_psnr(dataset.test.images)
+      info["heldout_learned"] = collapse.heldout(info["eval"]["psnr"], heldout_constant,
+                                                 config[name].collapse.margin_db)
     save(workdir, state)
     if parallel.is_primary():
       info["provenance"] = provenance.collect()

@@ -159,45 +159,48 @@ def run_one(suite_name, suite, scene, method, seed, mode, results, scratch) -> d
   return record
 
 
-def add_validation(suite_name, scene, method, seed, mode, results, scratch) -> str:
-  """Adds the validation scores to a finished run's file that lacks them,
-  from its workdir; returns what it did, in a word or two."""
-  path = result_path(results, suite_name, mode, scene, method, seed)
-  if not scene.validation or not os.path.exists(path):
-    return "nothing"
-  with open(path) as f:
-    record = json.load(f)
-  if "validation" in record:
-    return "has it"
-  workdir = workdir_of(scratch, suite_name, mode, scene, method, seed)
-  if not os.path.isdir(workdir):
-    return "no workdir"
-  record["validation"] = score_validation(workdir, record, scene.validation)
-  run_file.write_json(path, record)
-  return "scored"
-
-
-def judge_heldout(suite_name, suite, scene, method, seed, mode, results, scratch) -> str:
-  """Adds the held-out verdict (stages/collapse.py: heldout) to a finished
-  run's file made before runs carried it: each rendering stage's held-out
-  PSNR in the record against the best constant image of the same views,
-  loaded as the run loaded them. Nothing is rendered. Returns what it did."""
-  path = result_path(results, suite_name, mode, scene, method, seed)
+def _fill(path, field, fill, done) -> str:
+  """Adds `field` to a finished run's file that lacks it: record[field] =
+  fill(record), or the word fill returns instead of a value (the run lacks
+  what it needs); returns what it did, in a word or two (`done` for added)."""
   if not os.path.exists(path):
     return "nothing"
   with open(path) as f:
     record = json.load(f)
-  if "heldout_learned" in record:
+  if field in record:
     return "has it"
-  from halo_jax import datasets
-  c = configure(suite, scene, method, seed, mode, scratch)
-  views = datasets.load(c.data, "").test.images
-  constant = collapse.constant_psnr(views)
-  record["heldout_learned"] = {
-      n: collapse.heldout(s["psnr"], constant, c[n].collapse.margin_db)["verdict"]
-      for n, s in record["stages"].items() if "psnr" in s}
+  value = fill(record)
+  if isinstance(value, str):
+    return value
+  record[field] = value
   run_file.write_json(path, record)
-  return "judged"
+  return done
+
+
+def add_validation(suite_name, scene, method, seed, mode, results, scratch) -> str:
+  """Adds the validation scores to a finished run's file that lacks them,
+  from its workdir."""
+  if not scene.validation:
+    return "nothing"
+  workdir = workdir_of(scratch, suite_name, mode, scene, method, seed)
+  return _fill(result_path(results, suite_name, mode, scene, method, seed), "validation",
+               lambda r: (score_validation(workdir, r, scene.validation)
+                          if os.path.isdir(workdir) else "no workdir"), "scored")
+
+
+def judge_heldout(suite_name, scene, method, seed, mode, results, scratch) -> str:
+  """Adds the held-out verdict (stages/collapse.py: heldout) to a finished
+  run's file made before runs carried it: each rendering stage's held-out
+  PSNR in the record against the best constant image of the same views,
+  loaded as the run loaded them. Nothing is rendered."""
+  def verdicts(record):
+    from halo_jax import datasets
+    c = configure(suites.SUITES[suite_name], scene, method, seed, mode, scratch)
+    constant = collapse.constant_psnr(datasets.load(c.data, "").test.images)
+    return {n: collapse.heldout(s["psnr"], constant, c[n].collapse.margin_db)["verdict"]
+            for n, s in record["stages"].items() if "psnr" in s}
+  return _fill(result_path(results, suite_name, mode, scene, method, seed), "heldout_learned",
+               verdicts, "judged")
 
 
 def _state(path, scene, suite, add_fronts=False):
@@ -228,16 +231,11 @@ def main(argv):
     todo = plan(suite, FLAGS.only)
   except ValueError as e:
     sys.exit(str(e))
-  if FLAGS.judge_heldout:
+  fill = (judge_heldout if FLAGS.judge_heldout
+          else add_validation if FLAGS.score_validation else None)
+  if fill:  # train nothing: add a field to finished runs' files
     for scene, method, seed in todo:
-      what = judge_heldout(FLAGS.suite, suite, scene, method, seed, FLAGS.mode, FLAGS.results,
-                           FLAGS.scratch)
-      print(f"{what:10} {scene.name}/{method}/seed{seed}", flush=True)
-    return
-  if FLAGS.score_validation:
-    for scene, method, seed in todo:
-      what = add_validation(FLAGS.suite, scene, method, seed, FLAGS.mode, FLAGS.results,
-                            FLAGS.scratch)
+      what = fill(FLAGS.suite, scene, method, seed, FLAGS.mode, FLAGS.results, FLAGS.scratch)
       print(f"{what:10} {scene.name}/{method}/seed{seed}", flush=True)
     return
   failed, runnable = [], []

@@ -2,6 +2,8 @@
 every method is measured against, and mean ± std cells."""
 import numpy as np
 
+from halo_jax.stages import collapse
+
 METHOD_ORDER = ("nerf_paper", "nerf_tuned", "freenerf", "halo", "halo+freenerf", "halo+unseen")
 BASELINE = "nerf_tuned"
 
@@ -37,7 +39,7 @@ def collapse_lines(tagged_records):
                 if "collapsed" not in r and "learned" in (r.get("learned") or {}).values())
   other = len(tagged_records) - learned - len(collapsed)
   flat = [(t, n) for t, r in tagged_records
-          for n, v in (r.get("heldout_learned") or {}).items() if v == "collapsed"]
+          for n, v in (r.get("heldout_learned") or {}).items() if v == collapse.COLLAPSED]
   lines = [f"Collapse check (each stage's training fit against the best constant "
            f"prediction's; halo_jax/stages/collapse.py): {learned} run(s) learned, "
            f"**{len(collapsed)} collapsed**, {other} without a verdict (recorded before the "

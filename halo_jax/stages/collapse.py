@@ -87,10 +87,14 @@ def targets_baseline(depth, acc, far: float, weights=(1.0,)) -> Baseline:
                   constant="Lo-NeRF's targets' mean depth and opacity")
 
 
-def constant_psnr(rgb: np.ndarray) -> float:
-  """PSNR of the best constant prediction (the mean colour) of pixels rgb [..., 3]."""
-  rgb = np.asarray(rgb, np.float64).reshape(-1, rgb.shape[-1])
-  mse = float(((rgb - rgb.mean(0)) ** 2).mean())
+def constant_psnr(rgb: np.ndarray, rows: int = 1 << 20) -> float:
+  """PSNR of the best constant prediction (the mean colour) of pixels rgb [..., 3].
+  Accumulated in float64 over `rows` pixels at a time: a paper-size test
+  split is never copied whole to float64."""
+  rgb = np.asarray(rgb).reshape(-1, rgb.shape[-1])
+  chunks = [rgb[i:i + rows] for i in range(0, rgb.shape[0], rows)]
+  mean = sum(c.sum(0, dtype=np.float64) for c in chunks) / rgb.shape[0]
+  mse = float(sum(((c - mean) ** 2).sum() for c in chunks) / rgb.size)
   return float("inf") if mse == 0.0 else -10.0 * np.log10(mse)
 
 
