@@ -13,11 +13,12 @@ from halo_jax import pipeline, protocol, provenance
 from halo_jax.stages import collapse
 
 
-def read_curve(workdir):
-  """[[training seconds, held-out PSNR], ...] from a run's metrics.jsonl (the
-  last record of each stage and step, so a resumed run is not counted twice).
-  The seconds are the reference clock's (the same on any machine) where the
-  log has them, else this machine's training seconds."""
+def read_curve(workdir, heldout=True):
+  """[[training seconds, PSNR], ...] from a run's metrics.jsonl (the last
+  record of each stage and step, so a resumed run is not counted twice): the
+  held-out evaluations, or with heldout=False the logged training batches of
+  the stages that render. The seconds are the reference clock's (the same on
+  any machine) where the log has them, else this machine's training seconds."""
   path = os.path.join(workdir, "metrics.jsonl")
   if not os.path.exists(path):
     return []
@@ -25,7 +26,7 @@ def read_curve(workdir):
     recs = [json.loads(line) for line in f]
   points = {}
   for r in recs:
-    if r.get("heldout"):
+    if bool(r.get("heldout")) == heldout and "psnr" in r:
       points[(r.get("stage"), r.get("step"))] = [r.get("reference_s", r["wall_s"]), r["psnr"]]
   return sorted(points.values())
 
@@ -69,6 +70,9 @@ def run_method(config, workdir, dataset=None) -> dict:
                               if "heldout_learned" in i},
           **({"collapsed": collapsed} if collapsed else {}),
           "curve": read_curve(workdir),
+          # training-batch PSNR against the same clock: whether a field still fits
+          # its training views while its held-out figure has stopped rising
+          "train_curve": read_curve(workdir, heldout=False),
           **_frequency_choice(workdir),
           "provenance": provenance.collect(),
           # every field the run read, as resolved: the record stands without its config file

@@ -114,8 +114,9 @@ class _Run:
     self.finish_step()
     loss = float(loss)
     record = {k: float(v) for k, v in aux.items()}
-    full = dict(stage=self.name, step=step, wall_s=self.wall_offset + self.wall_s, loss=loss,
-                lr=float(self.lr(step - 1)), skipped=int(self.state["skipped"]), **record)
+    full = dict(stage=self.name, step=step, wall_s=self.wall_offset + self.wall_s,
+                reference_s=self.clock(step), loss=loss, lr=float(self.lr(step - 1)),
+                skipped=int(self.state["skipped"]), **record)
     self.log.write(**full)
     if parallel.is_primary():
       tensorboard.write_record(self.board, full)
