@@ -55,6 +55,7 @@ def _train(steps, batch_rays, lr_init, lr_final):
       # stop after this step, as a time cap would, with every schedule (the
       # learning rate's, FreeNeRF's mask) still spanning `steps` (0: at `steps`)
       stop_at_step=0,
+      schedule_span="steps",  # or 'stage': protocol.SPANNED spans the steps trained
       # stop with an error after this many non-finite steps in a row (each is
       # skipped, leaving the parameters as they were; 0: never stop)
       max_nonfinite=20,
@@ -275,10 +276,8 @@ def _ray_stage():
   r.encoding = ml_collections.ConfigDict(dict(L=10, scale=32.0))
   r.model = _model()
   r.radius = 0.0              # sphere of the ray parametrisation (0: camera radius)
-  # 'max_weight', 'max_weight_far' (the light left after the last sample
-  # weighs in at far: the authors' 2e10 last interval) or 'expected' (Lo-NeRF's
-  # normalised expected depth)
-  r.depth_target = "max_weight"
+  r.depth_target = "max_weight"  # one of raycast.DEPTH_TARGETS
+  r.acc_weight = 1.0          # L_ray's opacity term (0: depth alone, the authors' 360 code)
   r.random_fraction = 0.5     # share of each batch drawn from random hemisphere rays
   r.bank_rays = 262144        # random rays rendered once by the frozen Lo-NeRF
   r.lo_samples = 0            # samples for the Lo-NeRF targets (0: Lo's own count)

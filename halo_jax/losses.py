@@ -42,9 +42,9 @@ def squared_error(rgb, target):
   return jnp.mean((rgb - target) ** 2)
 
 
-def ray_field_error(depth, acc, depth_target, acc_target, far):
-  """One ray's L_ray: ((d - d_lo) / far)^2 + (acc - acc_lo)^2, scalars."""
-  return ((depth - depth_target) / far) ** 2 + (acc - acc_target) ** 2
+def ray_field_error(depth, acc, depth_target, acc_target, far, acc_weight=1.0):
+  """One ray's L_ray: ((d - d_lo) / far)^2 + acc_weight (acc - acc_lo)^2, scalars."""
+  return ((depth - depth_target) / far) ** 2 + acc_weight * (acc - acc_target) ** 2
 
 
 def near_density(sigma, num_near: int):
@@ -67,9 +67,10 @@ def reconstruction(rgb, target):
   return over_rays(squared_error, _rows(rgb, 3), _rows(target, 3))
 
 
-def ray_field(depth, acc, depth_target, acc_target, far):
-  """L_ray = MSE(d / far, d_lo / far) + MSE(acc, acc_lo). All [...] -> scalar."""
-  return over_rays(lambda d, a, dt, at: ray_field_error(d, a, dt, at, far),
+def ray_field(depth, acc, depth_target, acc_target, far, acc_weight=1.0):
+  """L_ray = MSE(d / far, d_lo / far) + acc_weight MSE(acc, acc_lo). All [...]
+  -> scalar (acc_weight 0: the depth term alone)."""
+  return over_rays(lambda d, a, dt, at: ray_field_error(d, a, dt, at, far, acc_weight),
                    *(_rows(x) for x in (depth, acc, depth_target, acc_target)))
 
 

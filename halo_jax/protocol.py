@@ -14,6 +14,13 @@
 config alone; it writes only the stage fields it owns (`budget_steps`,
 `ref_step_s`, `ref_setup_s`, `ref_offset_s`, `max_seconds`) and is
 idempotent, so the pipeline can resolve again what `configure` resolved.
+A stage with `schedule_span='stage'` (a recipe whose schedules are shares of
+its run, the authors') is the one exception: once its length is fixed,
+`steps` becomes that length and each field of SPANNED is rescaled with it,
+so its rate, crop, L_empty start and window span the steps it trains
+(resolving again finds the ratio 1 and changes nothing). A stage that
+measures its own count has no length before it starts; its schedules stay
+written against `steps`.
 
 The reference clock of a stage is `ref_offset_s + ref_setup_s + step *
 ref_step_s`: the front's snapshots (eval.front_s) and the held-out curve's
@@ -33,6 +40,11 @@ from halo_jax.stages.order import needed, stage_names
 
 KINDS = ("paper", "steps", "budget")
 OWNED = ("budget_steps", "ref_step_s", "ref_setup_s", "ref_offset_s")
+SPANS = ("steps", "stage")
+# Step-valued schedule fields (dotted, under a stage) that schedule_span='stage'
+# rescales to the steps the stage trains.
+SPANNED = ("precrop_steps", "fg_steps", "lr_decay_steps", "empty.start_step",
+           "joint.alpha_steps")
 
 
 def budget(config, seconds: float):
@@ -80,6 +92,9 @@ def check(config):
   registry.check((config.budget_s > 0) == (kind == "budget"),
                  f"budget_s={config.budget_s!r} with protocol={kind!r}: a budget of reference "
                  "seconds needs protocol='budget' and budget_s > 0; the other protocols have none")
+  for name in stage_names(config):
+    span = config[name].get("schedule_span", "steps")
+    registry.check(span in SPANS, f"{name}.schedule_span={span!r}: must be one of {list(SPANS)}")
   if kind == "budget":
     names = needed(config, config.final_stage)
     shares = {n: config.budget_shares.get(n, None) for n in names}
@@ -95,8 +110,36 @@ def resolve(config):
   config (ConfigError as `check` says)."""
   check(config)
   _clear(config)
-  if config.protocol != "budget":
-    return config
+  if config.protocol == "budget":
+    _budget_steps(config)
+  for name in stage_names(config):
+    if config[name].get("schedule_span", "steps") == "stage":
+      _span_schedules(config[name])
+  return config
+
+
+def _span_schedules(cfg):
+  """Rescales a stage's SPANNED fields from `steps` to the steps it trains
+  (the budget's count, or stop_at_step where sooner), which becomes `steps`;
+  a stage that measures its own count is left as it is."""
+  if cfg.get("max_seconds", 0.0) and not cfg.get("budget_steps", 0):
+    return
+  length = min(cfg.steps, cfg.stop_at_step or cfg.steps, cfg.budget_steps or cfg.steps)
+  ratio = length / max(cfg.steps, 1)
+  for dotted in SPANNED:
+    *path, field = dotted.split(".")
+    node = cfg
+    for part in path:
+      node = node.get(part)
+      if node is None:
+        break
+    if node is not None and node.get(field, 0) > 0:
+      node[field] = max(1, round(node[field] * ratio))
+  cfg.steps = length
+
+
+def _budget_steps(config):
+  """Each stage's budget_steps from the step table (module docstring)."""
   names = needed(config, config.final_stage)
   shares = {n: config.budget_shares[n] for n in names}
   table = step_table.load(config.get("step_table", ""))
@@ -121,7 +164,6 @@ def resolve(config):
     cfg.update(budget_steps=count, ref_step_s=float(entry["step_s"]),
                ref_setup_s=float(entry["setup_s"]), ref_offset_s=spent)
     spent += entry["setup_s"] + count * entry["step_s"]
-  return config
 
 
 def summary(config) -> dict:

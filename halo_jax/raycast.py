@@ -233,6 +233,9 @@ def eval_outputs(out):
           "depth_max": out["depth_max"], "acc": out["acc"]}
 
 
+DEPTH_TARGETS = ("max_weight", "max_weight_open_end", "expected")
+
+
 @functools.partial(jax.jit, static_argnames=("model", "num_samples", "near", "far",
                                              "white_background", "target", "block_rays"))
 def lo_targets(model, params, origins, dirs, *, num_samples, near, far, white_background,
@@ -241,9 +244,9 @@ def lo_targets(model, params, origins, dirs, *, num_samples, near, far, white_ba
   field), for L_ray and L_empty. block_rays: see in_blocks.
 
   Returns depth [R] (target: 'max_weight', the largest weight's sample;
-  'max_weight_far', the same with the light left after the last sample as a
-  weight at `far` (the authors' 2e10 last interval); 'expected', the
-  normalised expected depth) and acc [R].
+  'max_weight_open_end', the same with the last interval open to the
+  authors' 2e10 (render.open_end_max_depth); 'expected', the normalised
+  expected depth) and acc [R].
   """
   def targets(origins, dirs, times):
     t = jax.vmap(lambda o: samplers.stratified(None, near, far, num_samples,
@@ -251,10 +254,8 @@ def lo_targets(model, params, origins, dirs, *, num_samples, near, far, white_ba
     out = composite(model, params, origins, dirs, t, white_background, times=times)
     if target == "expected":
       depth = render.normalized_depth(out["depth"], out["acc"])
-    elif target == "max_weight_far":
-      # the authors' huge last interval: what light passes every sample
-      # counts as a weight at the far bound, so an empty ray's depth is far
-      depth = jnp.where(1.0 - out["acc"] > out["weights"].max(-1), far, out["depth_max"])
+    elif target == "max_weight_open_end":
+      depth = jax.vmap(render.open_end_max_depth)(out["weights"], out["sigma"], t)
     else:
       depth = out["depth_max"]
     return depth, out["acc"]

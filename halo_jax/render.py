@@ -73,6 +73,26 @@ def volume_render(sigma, rgb, t_edges, white_background: bool = True):
           "weights": weights}
 
 
+# The authors' last interval: the light that reaches the last sample stops
+# there wherever its density is above 0.
+OPEN_END_DELTA = 2e10
+
+
+def open_end_max_depth(weights, sigma, t_edges):
+  """t_mid of the largest weight with the last interval OPEN_END_DELTA long,
+  [...]: the authors' depth target (argmax of their weights). Where the last
+  sample's density is 0 and so every weight is (an empty ray under a ReLU
+  density), argmax gives the first sample.
+
+  weights [..., N] (volume_render's), sigma [..., N], t_edges [..., N + 1].
+  """
+  reaching_last = jnp.clip(1.0 - weights[..., :-1].sum(-1), 0.0, 1.0)
+  last = reaching_last * -jnp.expm1(-jnp.clip(sigma[..., -1] * OPEN_END_DELTA, 0.0, 1e30))
+  opened = jnp.concatenate([weights[..., :-1], last[..., None]], -1)
+  t_mid = interval_midpoints(t_edges)
+  return jnp.take_along_axis(t_mid, jnp.argmax(opened, -1)[..., None], -1)[..., 0]
+
+
 def normalized_depth(depth, acc, eps=1e-10):
   """Expected depth of the visible part, sum w t / sum w, [...]; 0 where acc = 0."""
   return jnp.where(acc > eps, depth / jnp.maximum(acc, eps), 0.0)

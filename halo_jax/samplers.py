@@ -221,8 +221,9 @@ def blended_window(guide, near, far, width):
 
   Half-width width / 2 of the range around the guide, clipped to it, then
   blended towards the range ends by 1 - width: [w lo' + (1 - w) near,
-  w hi' + (1 - w) far]. At width 1 it is the guide +- half the range; as
-  width falls the window narrows around the guide.
+  w hi' + (1 - w) far]. Away from the ends its length is (1 - w + w^2) of
+  the range: all of it at w = 1 and at w = 0, 75% at w = 0.5, 91% at
+  w = 0.1. It never narrows to w of the range; it shifts towards the guide.
 
   Args:
     guide: [...] the ray field's depth.

@@ -36,7 +36,7 @@ TIMELESS = frozenset((
     "freq_reg.end", "joint.alpha_final", "joint.alpha_steps", "joint.seed", "fourier.seed",
     "fourier.st_std", "fourier.theta_std", "fourier.uv_std", "joint.std", "joint.uv_std",
     "sampler.window", "sampler.coarse_weight", "collapse.margin_db", "collapse.after_steps",
-    "collapse.window", "radius", "tau"))
+    "collapse.window", "radius", "tau", "schedule_span", "acc_weight"))
 # Weights: only whether the term is on sets the time.
 WEIGHTS = ("weight", "consist_weight", "color_weight", "nerf_consist_weight")
 

@@ -1,6 +1,7 @@
 """The authors' light-field pieces (methods/halo_authors.py) against numpy
 transcriptions of their code (lsongx/halo, static/vcnerf: NormalEmbedder,
 EPINeLFUvSt's sampler, NeLFEPIField's layer sizes) on fixed inputs."""
+import math
 import os
 
 import jax
@@ -128,14 +129,42 @@ def test_nelf_ray_field_has_their_layers():
   assert tau.shape == (5,) and rgb.shape == (5, 3)
 
 
+@pytest.mark.parametrize("w", [1.0, 0.5, 0.1, 0.0])
+def test_blended_window_length_is_one_minus_w_plus_w_squared(w):
+  # away from the range ends: w * (w R) + (1 - w) R of the range R
+  lo, hi = samplers.blended_window(jnp.array(3.0), 1.0, 5.0, w)
+  assert float(hi - lo) == pytest.approx((1 - w + w * w) * 4.0, rel=1e-6)
+
+
 def test_halo_authors_config_on_knights():
   c = configure.load("configs/stanford_lf.py:knights", "halo_authors")
   hi = c.hi
   assert hi.sampler.kind == "joint_blended" and hi.joint.field == "nelf"
   assert hi.fourier.st_kind == "axis" and hi.fourier.uv_features == 1 and hi.fourier.uv_drawn == 10
   assert (hi.joint.model.width, hi.joint.model.depth) == (256, 8)
-  assert hi.joint.random_rays == 512 and hi.joint.color_weight == 1.0
+  assert hi.joint.color_weight == 1.0
   assert hi.model.density_activation == "relu" and hi.density_noise == 1.0
+  # batch_stanfordlf_dataset.py:155-166: batch_size fresh random rays a step,
+  # whatever the batch (aug_points is never read: epi_nelf_uv_st.py:109)
+  cpu = configure.load("configs/stanford_lf.py:knights_cpu", "halo_authors").hi
+  assert (hi.joint.random_rays, cpu.joint.random_rays) == (hi.batch_rays, cpu.batch_rays)
+  # ..._lego_knights.py:108-110: Poly power 1 per iteration to min_lr 5e-6 over
+  # the run; epi_converge_iter 250 * 80 of its 80k iterations
+  for stage in (hi, cpu):
+    assert (stage.lr_power, stage.lr_final, stage.schedule_span) == (1.0, 5e-6, "stage")
+    assert stage.joint.alpha_steps == round(stage.steps * 20000 / 80000)
+
+
+def test_halo_authors_llff_schedule_is_theirs():
+  # epi_nelf_sparse_llff_trex.py: Poly power 2 to 5e-6 over 100 epochs of
+  # RepeatDataset(times=5) over 4 views of 504 x 378 rays in batches of 3072;
+  # epi_converge_iter 1200 * 10 of those iterations
+  iterations = 100 * 5 * (4 * 504 * 378 // 3072)   # 248 whole batches an epoch
+  assert iterations == 124000
+  for variant in ("fern_4view", "fern_4view_cpu"):
+    hi = configure.load(f"configs/llff.py:{variant}", "halo_authors").hi
+    assert (hi.lr_power, hi.lr_final, hi.schedule_span) == (2.0, 5e-6, "stage")
+    assert hi.joint.alpha_steps == pytest.approx(hi.steps * 12000 / iterations, abs=1)
 
 
 def test_halo_authors_refuses_dynamic_scenes():
@@ -199,14 +228,19 @@ def test_a_blended_window_of_width_zero_is_the_whole_range():
 def test_halo_authors_on_blender_is_their_static_recipe():
   c = configure.load("configs/blender.py:lego_8view", "halo_authors")
   hi = c.hi
-  assert c.stages == "lo,ray,hi" and c.ray.depth_target == "max_weight_far"
+  # render_utils.py:18-28: ReLU density in both NeRFs; :82 the argmax depth
+  assert c.stages == "lo,ray,hi" and c.ray.depth_target == "max_weight_open_end"
+  for stage in (c.lo, c.hi):
+    assert (stage.model.density_activation, stage.model.density_bias) == ("relu", 0.0)
+  # nelf_nerf360.py:145-151,198: the ray field's opacity loss is commented out
+  assert c.ray.acc_weight == 0.0
   assert hi.sampler.near_only and not hi.model.use_viewdirs and hi.precrop_steps == 1000
   # L_empty from step 0 on 8-view lego (lf_hf_nerf_8view_gpu.py:17: empty_start_iter='0')
   assert (hi.empty.density_noise, hi.empty.num_samples, hi.empty.start_step) == (1.0, 128, 0)
   # lego: Hi from Lo but for the encoding's layers, 5e-3 falling with power 1 to
   # their absolute min_lr (nelf_nerf_synthetic_hotdog_sparse_hfnerf.py: Poly, min_lr=5e-6)
   assert hi.init_from_lo and hi.init_skip_fresh and not hi.encoding.with_lo
-  assert (hi.lr_init, hi.lr_power) == (pytest.approx(5e-3), 1.0)
+  assert (hi.lr_init, hi.lr_power, hi.schedule_span) == (pytest.approx(5e-3), 1.0, "stage")
   assert hi.lr_final == 5e-6
   # their loaded rate as it stands, also where the CPU config's base rate is 4x the paper's
   assert configure.load("configs/blender.py:lego_8view_cpu", "halo_authors").hi.lr_init == 5e-3
@@ -223,6 +257,43 @@ def test_halo_authors_on_blender_is_their_static_recipe():
                           "halo_authors").hi.empty.start_step == 0
 
 
+def test_authors_schedules_span_the_steps_hi_trains():
+  # Hi stopped at 736 of its 6000-step cap: the crop (1000 of 80k), L_empty's
+  # start on drums (2000 of 80k) and the Poly rate span the 736 steps
+  from halo_jax import protocol
+  from halo_jax.stages import step
+  over = {"protocol": "steps", "budget_s": 0.0, "hi.stop_at_step": 736}
+  for scene, start in (("lego", 0), ("drums", 2000)):
+    c = protocol.resolve(configure.load(f"configs/blender.py:{scene}_8view_cpu",
+                                        "halo_authors", over))
+    hi = c.hi
+    assert hi.steps == 736
+    assert hi.precrop_steps == round(round(1000 * 6000 / 80000) * 736 / 6000) == 9
+    assert hi.empty.start_step == (round(round(start * 6000 / 80000) * 736 / 6000) if start
+                                   else 0)
+    assert float(step.schedule(hi)(736)) == pytest.approx(5e-6)
+    again = protocol.resolve(c)   # idempotent: the ratio is 1 the second time
+    assert (again.hi.steps, again.hi.precrop_steps) == (736, 9)
+  # `halo` keeps its schedules on the cap
+  ours = protocol.resolve(configure.load("configs/blender.py:lego_8view_cpu", "halo", over)).hi
+  assert (ours.steps, ours.schedule_span) == (6000, "steps")
+
+
+def test_authors_schedules_span_the_budgets_count(tmp_path):
+  # under the budget protocol the count comes from the step table
+  import json
+  from halo_jax import protocol, step_table
+  c = configure.load("configs/llff.py:fern_4view_cpu", "halo_authors")
+  table = tmp_path / "table.json"
+  table.write_text(json.dumps({"entries": {step_table.key(c, "hi"): {"step_s": 0.5,
+                                                                     "setup_s": 0.0}}}))
+  c.step_table = str(table)
+  hi = protocol.resolve(c).hi
+  assert hi.budget_steps == hi.steps == math.ceil(c.budget_s / 0.5)
+  assert hi.joint.alpha_steps == round(round(6000 * 12000 / 124000) * hi.steps / 6000)
+  assert hi.lr_power == 2.0 and hi.lr_final == 5e-6
+
+
 def test_poly_schedule_is_mmcvs():
   import ml_collections
   from halo_jax.stages import step
@@ -234,18 +305,47 @@ def test_poly_schedule_is_mmcvs():
     assert float(fn(it)) == pytest.approx((5e-4 - 5e-6) * (1 - it / 1000) ** 2 + 5e-6, rel=1e-5)
 
 
-def test_max_weight_far_puts_an_empty_rays_depth_at_far():
+def _their_argmax_depth(sigma, z, dists):
+  """Their compositing (render_utils.py:18-28) and depth target (:82) in
+  numpy: ReLU density, the last interval 2e10, z of the argmax weight."""
+  dists = np.concatenate([dists[:-1], [2e10]])
+  alpha = 1.0 - np.exp(-np.maximum(sigma, 0.0) * dists)
+  weights = alpha * np.cumprod(np.concatenate([[1.0], 1.0 - alpha + 1e-10]))[:-1]
+  return z[np.argmax(weights)]
+
+
+@pytest.mark.parametrize("case", ["empty", "faint_last", "surface", "two_surfaces"])
+def test_open_end_depth_target_is_their_argmax(case):
+  from halo_jax import render
+  edges = np.linspace(2.0, 6.0, 9)
+  z, dists = 0.5 * (edges[:-1] + edges[1:]), np.diff(edges)
+  sigma = {"empty": np.zeros(8),                      # all-zero weights: index 0
+           "faint_last": np.r_[np.zeros(7), 1e-3],    # the passing light stops last
+           "surface": np.r_[np.zeros(3), 0.4, 0.0, 0.0, 0.0, 1e-3],
+           "two_surfaces": np.r_[0.0, 0.1, 0.0, 0.0, 3.0, 0.0, 0.0, 0.0]}[case]
+  weights = render.volume_render(jnp.asarray(sigma, jnp.float32), jnp.zeros((8, 3)),
+                                 jnp.asarray(edges, jnp.float32))["weights"]
+  ours = float(render.open_end_max_depth(weights, jnp.asarray(sigma, jnp.float32),
+                                         jnp.asarray(edges, jnp.float32)))
+  assert ours == pytest.approx(_their_argmax_depth(sigma, z, dists))
+  assert ours == pytest.approx({"empty": z[0], "faint_last": z[-1], "surface": z[-1],
+                                "two_surfaces": z[4]}[case])
+
+
+def test_open_end_target_in_lo_targets_and_an_unknown_target_is_refused():
   from halo_jax import raycast
-  class Empty:   # a field with (nearly) no density: the light passes every sample
+  class Empty:   # a ReLU field with no density at all
     def apply(self, variables, points, view, *a, **k):
-      return jnp.full(points.shape[:-1], 1e-4), jnp.zeros(points.shape[:-1] + (3,))
+      return jnp.zeros(points.shape[:-1]), jnp.zeros(points.shape[:-1] + (3,))
   o = jnp.zeros((2, 3)); d = jnp.array([[0.0, 0.0, 1.0]] * 2)
   depth, acc = raycast.lo_targets(Empty(), {}, o, d, num_samples=8, near=2.0, far=6.0,
-                                  white_background=False, target="max_weight_far")
-  np.testing.assert_allclose(depth, [6.0, 6.0])
-  near_depth, _ = raycast.lo_targets(Empty(), {}, o, d, num_samples=8, near=2.0, far=6.0,
-                                     white_background=False, target="max_weight")
-  assert float(near_depth[0]) < 3.0
+                                  white_background=False, target="max_weight_open_end")
+  np.testing.assert_allclose(depth, [2.25, 2.25])   # their index 0: the first sample
+  np.testing.assert_allclose(acc, [0.0, 0.0])
+  from halo_jax import validate
+  bad = configure.load("configs/blender.py:lego_8view_cpu", "halo", {"ray.depth_target": "far"})
+  with pytest.raises(ValueError, match="ray.depth_target='far'.*must be one of"):
+    validate.validate(bad)
 
 
 @pytest.mark.slow

@@ -26,6 +26,7 @@ measured. Every scene of one kind and size shares its key, so a scene outside
 the suites finds its entry without a measurement of its own.
 """
 import copy
+import dataclasses
 import json
 import os
 import statistics
@@ -56,7 +57,11 @@ RECORD_SEEDS = (0, 1)
 # Suites whose keys the table covers, with the suite whose terms configure them.
 SUITES = (("cpu", suites.CPU, suites.CPU.scenes),
           ("validation", suites.CPU, suites.VALIDATION_SCENES),
-          ("smoke", suites.SMOKE, suites.SMOKE.scenes))
+          ("smoke", suites.SMOKE, suites.SMOKE.scenes),
+          # the authors' recipe in its studies (halo_jax/bench/studies.py)
+          ("authors", suites.CPU, tuple(
+              dataclasses.replace(s, methods=("halo_authors",))
+              for s in suites.VALIDATION_SCENES if not s.name.startswith("dnerf_"))))
 
 
 def pairs(only: str = ""):

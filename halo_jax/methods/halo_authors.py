@@ -6,11 +6,13 @@ schedules at those sizes (docs/differences.md).
 
 360-degree scenes (their nelf_nerf_synthetic configs and launch script):
 - Lo -> ray field -> Hi as the paper; Lo with the scene's centre crop;
-- the ray field's depth target the largest weight, the light that passes
-  every sample weighing in at the far bound (their 2e10 last interval);
+- density ReLU(raw) in Lo and Hi, the last interval open to 2e10; the ray
+  field's depth target the argmax of those weights (an empty ray: the first
+  sample), trained on depth alone (their opacity loss is commented out);
 - Hi view-independent, samples in a window tightened on the near side only,
   a centre crop for its first 1000 of 80k steps, the rate falling by a
-  power-2 polynomial from 5e-4 to their absolute min_lr, 5e-6;
+  power-2 polynomial from 5e-4 to their absolute min_lr, 5e-6, over the
+  steps Hi trains;
 - L_empty renders Hi with density noise 1.0 and Hi's sample count; the
   8-view launch script starts it at step 0 (lego, chair, ship, materials,
   hotdog) or 2k of 80k (drums, ficus, mic), the one-side run at the
@@ -18,8 +20,8 @@ schedules at those sizes (docs/differences.md).
 - per scene: lego and hotdog, and the one-side protocol, start Hi from Lo's
   weights but for the layers that read the encoding, at their 5e-3, lego and
   hotdog with power 1; chair with power 1.
-Step counts are shares of the scene's Hi steps (theirs where the scene
-config has the paper's 80k).
+Step counts are shares of their run, applied to the steps each stage trains
+(schedule_span='stage': under a budget, the count the step table gives).
 
 Light fields (their EPINeLFUvSt with NeLFEPIField and EPIField):
 - encodings: their NormalEmbedder, sorted |N(0, std)| frequencies applied to
@@ -27,21 +29,25 @@ Light fields (their EPINeLFUvSt with NeLFEPIField and EPIField):
   radiance field's colour reads only the lowest (u, v) pair of a draw of 10;
 - the ray field (joint.field='nelf'): as large as the radiance field, with a
   tau hidden layer and a colour head over all of (u, v)'s features, trained
-  on the pixels and on random rays between the cameras (512 of every 3072);
+  on the pixels and on as many fresh random rays between the cameras;
 - the sampler ('joint_blended'): half the samples evenly over the range, half
   uniform in a window around the ray field's depth, its width falling to
   half the range and blended towards the range ends;
 - density relu(raw + N(0, 1)), no bias; the colour's hidden layer as wide as
-  the trunk.
+  the trunk;
+- the window's schedule over the first quarter of the run (their 20k of
+  80k), the rate Poly power 1 to 5e-6.
 
 LLFF (their EPINeLFRays, configs/epi_nelf_sparse_llff_*.py): the same joint
 light field on world rays cut by two planes (data.kind 'llff_planes'), not
 NDC, and no Lo-NeRF; points placed by depth between the planes; (s, t) and
 the depth encoded by octaves (their BaseEmbedder: scale 8 and 1), (u, v) by
 axis-aligned frequencies of std 8 rad per scene unit; the ray field's colour
-without (u, v); every sample evenly over a window that narrows to a tenth of
-the range; L_consist on the largest weight's depth, on as many random rays as
-training rays, which the radiance field renders over the whole depth range.
+without (u, v); every sample evenly over the blended window (w falling to
+0.1 over the first tenth of the run, 12k of ~124k; samplers.blended_window);
+L_consist on the largest weight's depth, on as many random rays as training
+rays, which the radiance field renders over the whole depth range; the rate
+Poly power 2 to 5e-6.
 """
 import math
 
@@ -50,27 +56,39 @@ import os
 from halo_jax import defaults, geometry
 from halo_jax.methods import base, halo
 
-# Their random rays per step for L_consist, a share of the training batch (512 of 3072).
-RANDOM_RAY_SHARE = 512 / 3072
 WINDOW_FINAL = 0.5          # their epi_converge_range: the window's final width share
 FEATURES = 10               # their NormalEmbedder's nb_freqs for (u, v) and (s, t)
+MIN_LR = 5e-6               # their Poly min_lr (every config): absolute, whatever the start
+# Knights (epi_nelf_stanfordlf_sparse_lego_knights.py): the window narrows over
+# epi_converge_iter = 20k of the 80k iterations; Poly power 1 per iteration.
+KNIGHTS_WINDOW_SHARE = 20000 / 80000
+KNIGHTS_LR_POWER = 1.0
+
+
+def _authors_schedule(stage, power):
+  """Their Poly rate from the stage's lr_init to MIN_LR, every schedule a
+  share of the steps the stage trains (protocol.SPANNED)."""
+  stage.update(lr_power=power, lr_final=MIN_LR, lr_decay_steps=0, schedule_span="stage")
 
 
 def two_plane(c):
   halo.two_plane(c)
   hi = c.hi
   hi.sampler.kind = "joint_blended"
-  parts = max(hi.microbatches, 1)
-  random_rays = int(hi.batch_rays * RANDOM_RAY_SHARE) // parts * parts
+  # As many fresh random rays as training rays: their sampler draws batch_size
+  # random (u, v, s, t) each step (batch_stanfordlf_dataset.py:155-166) and
+  # never reads render_params.aug_points (epi_nelf_uv_st.py:109).
   hi.joint.update(full_range=0.5, alpha_final=WINDOW_FINAL, target="expected",
-                  random_rays=random_rays, color_weight=1.0, nerf_consist_weight=0.0,
-                  field="nelf", num_features=FEATURES)
+                  random_rays=hi.batch_rays, color_weight=1.0, nerf_consist_weight=0.0,
+                  field="nelf", num_features=FEATURES,
+                  alpha_steps=max(1, round(KNIGHTS_WINDOW_SHARE * hi.steps)))
   hi.joint.model.update(width=hi.model.width, depth=hi.model.depth, skips=tuple(hi.model.skips))
   # theta: their epi_embedder's 5 frequencies
   hi.fourier.update(st_kind="axis", theta_kind="axis", uv_kind="axis", st_features=FEATURES,
                     theta_features=5, uv_std=hi.joint.uv_std, uv_features=1, uv_drawn=FEATURES)
   hi.model.update(density_activation="relu", density_bias=0.0, color_width=hi.model.width)
   hi.density_noise = 1.0
+  _authors_schedule(hi, KNIGHTS_LR_POWER)
 
 
 # LLFF (their epi_nelf_sparse_llff_trex.py)
@@ -78,9 +96,13 @@ LLFF_UV_STD = 8.0 / (2 * math.pi)   # their 8 rad per scene unit, in cycles
 LLFF_ST_SCALE = 8.0                 # BaseEmbedder scale of (s, t)
 LLFF_DEPTH_SCALE = 1.0              # ... and of the depth fraction
 LLFF_WINDOW_FINAL = 0.1
-# their LLFF window narrows in 12k iterations, knights' in 20k (of its 80k):
-# a share of the light-field window's length (hi.joint.alpha_steps)
-LLFF_WINDOW_SHARE = 0.6
+# Their LLFF run: 100 epochs of 5 passes over 4 views of 504 x 378 rays in
+# batches of 3072 (1240 iterations an epoch, 124k in all); the window
+# narrows in its first 12k; Poly power 2 per epoch (a 100-step staircase,
+# ours the smooth curve through it).
+LLFF_ITERATIONS = 100 * 5 * (4 * 504 * 378 // 3072)
+LLFF_WINDOW_SHARE = 12000 / LLFF_ITERATIONS
+LLFF_LR_POWER = 2.0
 
 
 def ndc(c):
@@ -95,7 +117,7 @@ def ndc(c):
   hi.empty.weight = 0.0
   hi.sampler.kind = "joint_blended_even"
   hi.joint.update(full_range=0.0, alpha_final=LLFF_WINDOW_FINAL,
-                  alpha_steps=max(1, round(LLFF_WINDOW_SHARE * hi.joint.alpha_steps)),
+                  alpha_steps=max(1, round(LLFF_WINDOW_SHARE * hi.steps)),
                   target="max_weight", random_rays=hi.batch_rays, color_weight=1.0,
                   nerf_consist_weight=0.0, field="nelf", num_features=FEATURES,
                   uv_kind="axis", uv_std=LLFF_UV_STD, st_kind="octaves", std=LLFF_ST_SCALE,
@@ -106,6 +128,7 @@ def ndc(c):
                     uv_kind="axis", uv_std=LLFF_UV_STD, uv_features=1, uv_drawn=FEATURES)
   hi.model.update(density_activation="relu", density_bias=0.0, color_width=hi.model.width)
   hi.density_noise = 1.0
+  _authors_schedule(hi, LLFF_LR_POWER)
 
 
 # 360-degree scenes
@@ -116,7 +139,6 @@ HI_CROP_STEPS = 1000
 EMPTY_START = 5000
 EMPTY_START_8VIEW = {"lego": 0, "chair": 0, "ship": 0, "materials": 0, "hotdog": 0,
                      "drums": 2000, "ficus": 2000, "mic": 2000}
-MIN_LR = 5e-6                  # their Poly min_lr: absolute, whatever the start
 LR_POWER = 2.0
 LOADED_FROM_LO = ("lego", "hotdog")   # Hi from Lo's weights at LOADED_RATE, power 1
 # Their rate for a Hi loaded from Lo, as it stands: a CPU config's 4x higher
@@ -133,7 +155,13 @@ def _scene_name(c) -> str:
 
 def sphere(c):
   c.stages = "lo,ray,hi"
-  c.ray.depth_target = "max_weight_far"
+  # their compositing (render_utils.py:18-28): ReLU density, a 2e10 last
+  # interval; the depth target the argmax of those weights (:82)
+  for stage in (c.lo, c.hi):
+    stage.model.update(density_activation="relu", density_bias=0.0)
+  c.ray.depth_target = "max_weight_open_end"
+  # nelf_nerf360.py:145-151,198: the opacity loss is commented out
+  c.ray.acc_weight = 0.0
   hi, scene = c.hi, _scene_name(c)
   one_side = c.data.protocol == "lego_oneside"
   if one_side and not c.budget_s:
@@ -149,10 +177,9 @@ def sphere(c):
                   start_step=share(EMPTY_START if one_side
                                    else EMPTY_START_8VIEW.get(scene, EMPTY_START)))
   hi.encoding.with_lo = False
-  hi.lr_power = 1.0 if scene in POWER_ONE else LR_POWER
   if scene in LOADED_FROM_LO or one_side:
     hi.update(init_from_lo=True, init_skip_fresh=True, lr_init=LOADED_RATE)
-  hi.lr_final = MIN_LR
+  _authors_schedule(hi, 1.0 if scene in POWER_ONE else LR_POWER)
 
 
 KINDS = {"two_plane": two_plane, "ndc": ndc, "sphere": sphere}

@@ -29,6 +29,10 @@ def check(config, name, dspec):
                  f"({dspec.geometry.value} rays) does not have: set {name}.random_fraction=0")
   registry.check(not dspec.dynamic, f"the ray field has no time input; data.kind="
                  f"{config.data.kind!r} has frames with times: leave the '{name}' stage out")
+  registry.check(cfg.depth_target in raycast.DEPTH_TARGETS,
+                 f"{name}.depth_target={cfg.depth_target!r}: must be one of "
+                 f"{list(raycast.DEPTH_TARGETS)}")
+  registry.check(cfg.acc_weight >= 0, f"{name}.acc_weight={cfg.acc_weight!r}: must be >= 0")
 
 
 def init_params(config, name, dataset):
@@ -45,7 +49,7 @@ class RayStageData(NamedTuple):
 
 
 def loss_fn(params, data: RayStageData, key, step, part=None, *, model, guide_geometry, radius,
-            far, n_train, n_random, mesh=None):
+            far, n_train, n_random, acc_weight=1.0, mesh=None):
   """L_ray on a batch of training rays and random hemisphere rays (or on the
   batch's `part`, microbatch.part_of: each source is cut alike)."""
   k_t, k_r = jax.random.split(key)
@@ -58,7 +62,7 @@ def loss_fn(params, data: RayStageData, key, step, part=None, *, model, guide_ge
       lambda *xs: parallel.shard_batch(jnp.concatenate(xs), mesh), *sources)
   guide = raycast.Guide(model, params["ray"], guide_geometry, radius)
   depth, acc = raycast.ray_field_depth(guide, batch.rays.origins, batch.rays.dirs)
-  loss = losses.ray_field(depth, acc, batch.depth, batch.acc, far)
+  loss = losses.ray_field(depth, acc, batch.depth, batch.acc, far, acc_weight)
   return loss, {"depth_rmse": jnp.sqrt(jnp.mean((depth - batch.depth) ** 2)),
                 "acc_mae": jnp.mean(jnp.abs(acc - batch.acc))}
 
@@ -109,7 +113,7 @@ def train(ctx: base.StageContext):
   data = jax.device_put(data)
   step_loss = functools.partial(loss_fn, model=model, guide_geometry=ds.geometry, radius=radius,
                                 far=ds.far, n_train=cfg.batch_rays - n_random,
-                                n_random=n_random, mesh=ctx.mesh)
+                                n_random=n_random, acc_weight=cfg.acc_weight, mesh=ctx.mesh)
   cfg = budget.minus_seconds(cfg, target_s)
   # each target source with its rays per batch, as loss_fn draws them
   shares = [(src, n) for src, n in ((data.train, cfg.batch_rays - n_random),
