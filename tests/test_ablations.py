@@ -8,7 +8,7 @@ import sys
 import pytest
 
 REPO = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..")
-from halo_jax.bench import ablations  # pylint: disable=g-import-not-at-top
+from halo_jax.bench import ablations, adopt  # pylint: disable=g-import-not-at-top
 
 
 def _write(path, rec):
@@ -103,3 +103,25 @@ def test_a_time_study_keeps_the_suites_budget_and_reports_fronts_on_validation_v
   assert "| shares_20_05_75 | 1 | 15.50 | 18.00 | 19.00 | 120 | 0.50 |" in text
   # over scenes and seeds: the variant against halo at each saved time
   assert "| `shares_20_05_75` | 1 | +0.50 | +1.00 | +0.50 |" in text
+
+
+def test_a_variant_that_is_a_suite_run_adopts_its_record(tmp_path):
+  # authors_static's `halo` on spheres is the validation suite's halo run:
+  # the same resolved config (but for the scratch folder the scene is
+  # generated in); halo_authors is not
+  results = str(tmp_path / "results")
+  suite = ablations.suites.VALIDATION
+  scene = next(s for s in suite.scenes if s.name == "spheres")
+  made = ablations.benchmark.configure(suite, scene, "halo", 0, "budget", str(tmp_path / "other"))
+  path = ablations.benchmark.result_path(results, "validation", "budget", scene, "halo", 0)
+  _write(path, {"psnr": 21.5, "resolved_config": json.loads(made.to_json_best_effort())})
+  study, study_scene, c = _configured("authors_static", "spheres", "halo", 0, tmp_path)
+  found = adopt.identical_suite_run(c, study_scene, "halo", 0, results)
+  assert found is not None and found[0] == path and found[1]["psnr"] == 21.5
+  assert adopt.identical_suite_run(c, study_scene, "halo", 1, results) is None
+  _, _, theirs = _configured("authors_static", "spheres", "halo_authors", 0, tmp_path)
+  assert adopt.identical_suite_run(theirs, study_scene, "halo_authors", 0, results) is None
+  # one field apart is another run
+  made.hi.lr_init *= 2
+  _write(path, {"psnr": 21.5, "resolved_config": json.loads(made.to_json_best_effort())})
+  assert adopt.identical_suite_run(c, study_scene, "halo", 0, results) is None

@@ -176,11 +176,16 @@ def test_halo_for_time_smoke(scene_root, tmp_path):
   path = write_npz(str(tmp_path / "d.npz"), scene_root)
   c = dynamic_config(path)
   c.hi.empty.weight = 0.1
+  for name in ("lo", "hi"):
+    c[name].update(steps=120, checkpoint_every=60, eval_every=60, lr_init=5e-3, lr_final=5e-3,
+                   log_every=2, precrop_steps=0)
   assert pipeline.needed(c) == ("lo", "hi")  # no ray field
   wd = str(tmp_path / "run")
   infos = pipeline.run(c, wd)
   ev = infos["hi"]["eval"]
-  assert 5.0 < ev["psnr"] < 40.0 and np.isfinite(ev["flicker"]) and ev["flicker"] >= 0
+  for name in ("lo", "hi"):
+    assert_trained(wd, name, c)
+  assert np.isfinite(ev["flicker"]) and ev["flicker"] >= 0
   assert os.path.exists(os.path.join(wd, "hi", "eval", "flicker.png"))
   log = [json.loads(l) for l in open(os.path.join(wd, "metrics.jsonl"))]
   assert any("empty" in r for r in log if r.get("stage") == "hi")
@@ -194,14 +199,14 @@ def test_every_method_trains_on_a_dynamic_scene(method, scene_root, tmp_path):
   path = write_npz(str(tmp_path / "d.npz"), scene_root)
   c = dynamic_config(path, method)
   for name in ("lo", "hi"):
-    c[name].update(steps=16, microbatches=1, batch_rays=64, checkpoint_every=16, eval_every=0,
+    c[name].update(steps=60, microbatches=1, batch_rays=64, checkpoint_every=60, eval_every=0,
                    log_every=1, precrop_steps=0, lr_init=5e-3, lr_final=5e-3)
   c.hi.sampler.update(num_coarse=8, num_samples=8)
   wd = str(tmp_path / "run")
   infos = pipeline.run(c, wd)
   assert np.isfinite(infos["hi"]["eval"]["psnr"])
-  for name in infos:  # FreeNeRF's masked bands make its first steps slow: 5% is the bar
-    assert_trained(wd, name, factor=0.95)
+  for name in infos:
+    assert_trained(wd, name, c)
   # the trained method reads time: one view's rays at t = 0 and t = 1 differ
   # (a method that dropped t anywhere would render them bit for bit alike)
   from halo_jax import restore  # pylint: disable=g-import-not-at-top

@@ -150,8 +150,14 @@ def test_joint_and_baseline_smoke(tmp_path, baseline, full_range, random_backgro
   assert pipeline.needed(c) == ("hi",)
   wd = str(tmp_path / "run")
   infos = pipeline.run(c, wd)
-  ev = infos["hi"]["eval"]
-  assert 5.0 < ev["psnr"] < 60.0
+  # six steps learn nothing here (200 do not either: the collapse check
+  # stops them); what the smoke run claims is that its figure is its render's:
+  # each view's PSNR is that of the written [truth | render | depth] panel
+  for name, view in infos["hi"]["eval"]["per_view"].items():
+    panel = iio.imread(os.path.join(wd, "hi", "eval", f"{name}.png")).astype(np.float64) / 255
+    truth, render_rgb, _ = np.split(panel[..., :3], 3, axis=1)
+    psnr = -10 * np.log10(np.mean((render_rgb - truth) ** 2))
+    assert view["psnr"] == pytest.approx(psnr, abs=0.05)
   log = [json.loads(l) for l in open(os.path.join(wd, "metrics.jsonl"))]
   train = [r for r in log if "loss" in r]
   assert all(np.isfinite(r["loss"]) for r in train)

@@ -89,13 +89,13 @@ def test_forward_facing_stages_smoke(tmp_path):
   c = llff_config(root)
   assert pipeline.needed(c) == ("lo", "ray", "hi")
   for name in ("lo", "hi"):
-    c[name].update(steps=16, log_every=1, lr_init=5e-3, lr_final=5e-3)
+    c[name].update(steps=60, log_every=1, lr_init=5e-3, lr_final=5e-3)
   wd = str(tmp_path / "run")
   infos = pipeline.run(c, wd)
   assert np.isfinite(infos["hi"]["eval"]["psnr"])
   assert infos["ray"]["step"] == c.ray.steps
   for name in ("lo", "hi"):
-    assert_trained(wd, name)
+    assert_trained(wd, name, c)
 
 
 @pytest.mark.skipif(not os.path.exists(FERN), reason="shared LLFF data absent")

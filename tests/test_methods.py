@@ -256,12 +256,12 @@ def test_method_trains_through_the_pipeline(name, scene_root, tmp_path):
   if name != "halo+freenerf":  # keep the tiny sizes: the method's own are for real runs
     c.hi.sampler.update(num_coarse=8, num_samples=8)
     c.hi.update(batch_rays=64, microbatches=1, steps=6, precrop_steps=2)
-  c.hi.update(steps=16, log_every=1, checkpoint_every=8, lr_init=5e-3, lr_final=5e-3)
+  c.hi.update(steps=60, log_every=1, checkpoint_every=30, lr_init=5e-3, lr_final=5e-3)
   wd = str(tmp_path / "run")
   infos = pipeline.run(c, wd)
-  assert infos["hi"]["step"] == 16 and infos["hi"]["skipped"] == 0
+  assert infos["hi"]["step"] == 60 and infos["hi"]["skipped"] == 0
   assert np.isfinite(infos["hi"]["eval"]["psnr"])
-  assert_trained(wd, "hi")
+  assert_trained(wd, "hi", c)
   log = [json.loads(line) for line in open(os.path.join(wd, "metrics.jsonl"))]
   if name == "freenerf":
     assert any("occlusion" in r for r in log)

@@ -287,3 +287,40 @@ def test_a_front_ends_at_its_reference_seconds_not_its_wall_clock():
   rec = {"front": _front([(15.0, 10.0), (30.0, 12.0)], 240.07, 14.0)}
   rec["front"][-1]["wall_s"] = 119.7  # a fast machine trained the same steps in half the time
   assert [t for t, _, _ in fronts_report.front_of(rec)] == [15.0, 30.0, 240.07]
+
+
+def _budget_record(psnr, config, curve=(), train=()):
+  return {"psnr": psnr, "config": config, "curve": [list(p) for p in curve],
+          "train_curve": [list(p) for p in train]}
+
+
+def test_budget_study_reads_the_lead_and_where_the_baseline_stops_improving(tmp_path):
+  from halo_jax.bench import budget_report
+  assert budget_report.trend({60.0: 1.0, 240.0: 0.8, 960.0: 0.5}) == "shrinks"
+  assert budget_report.trend({60.0: 0.1, 960.0: 0.3}) == "holds"
+  assert budget_report.trend({60.0: -0.2, 960.0: 0.3}) == "grows"
+  # nerf_tuned at 960 s: held-out peaks at 240 s (mean over seeds 22.0) and ends
+  # 0.5 dB lower, while its training batches go from 25 to 27 dB
+  curve = lambda top: [(120, 20.0), (240, top), (360, top - 0.5)]  # noqa: E731
+  train = [(230, 24.0), (240, 25.0), (250, 26.0), (350, 27.0), (360, 27.0)]
+  base = [_budget_record(20.0, "configs/blender.py:lego_8view_cpu", curve(21.5), train),
+          _budget_record(20.2, "configs/blender.py:lego_8view_cpu", curve(22.5), train)]
+  o = budget_report.overfitting(base)
+  assert (o["peak_s"], o["peak"], o["end_s"]) == (240.0, 22.0, 360.0)
+  assert o["heldout_change"] == -0.5 and o["train_change"] == 27.0 - 25.0
+  halo = lambda p: [_budget_record(p, "configs/blender.py:lego_8view_cpu", curve(23.0))]  # noqa
+  lego = "lego_8view"
+  suites = {("budget_60", "budget"): {lego: {"nerf_tuned": base, "halo": halo(21.1)}},
+            ("validation", "budget"): {lego: {"nerf_tuned": base, "halo": halo(20.6)},
+                                       "spheres": {"halo": halo(30.0)}},
+            ("budget_960", "budget"): {lego: {"nerf_tuned": base, "halo": halo(20.0)}}}
+  line = budget_report.write(suites, str(tmp_path))
+  page = (tmp_path / "budget_study.md").read_text()
+  # lead 1.0 at 60 s, 0.5 at 240 s, -0.1 at 960 s: it shrinks, and HALO trails at 960 s
+  assert "| blender | lego_8view | +1.00 | +0.50 | -0.10 | shrinks |" in page
+  assert "spheres" not in page                      # not a scene of the study
+  assert "nerf_tuned's held-out PSNR peaks at 240 s (22.00 dB" in page
+  assert "moves -0.50 dB by 360 s, while its training PSNR moves +2.00 dB" in page
+  assert (tmp_path / "budget_study_lego_8view.png").exists()
+  assert "+1.00 dB at 60, +0.50 dB at 240, -0.10 dB at 960 reference seconds" in line
+  assert "HALO trails on lego_8view" in line

@@ -70,7 +70,7 @@ def test_l_unseen_lowers_lo_nerfs_density_where_no_camera_looks(config, scene_ro
   c.data.root = scene_root
   c.eval.lpips = False
   c.stages = "lo"
-  c.lo.update(steps=40, log_every=10, lr_init=5e-3, lr_final=5e-3)
+  c.lo.update(steps=120, log_every=5, lr_init=5e-3, lr_final=5e-3, fg_steps=4)
   ends, psnr = {}, {}
   for weight in (1.0, 1e-9):
     c.lo.unseen.update(num_points=512, bank_points=8192, weight=weight)
@@ -81,7 +81,7 @@ def test_l_unseen_lowers_lo_nerfs_density_where_no_camera_looks(config, scene_ro
     log = [json.loads(line) for line in open(os.path.join(wd, "metrics.jsonl"))]
     ends[weight] = [r["unseen"] for r in log if r.get("stage") == "lo" and "unseen" in r][-1]
   assert ends[1.0] < 0.5 * ends[1e-9]
-  # the photometric fit is not broken: with the term on, the loss still falls
-  # well below its start, and the held-out PSNR is finite
-  assert_trained(str(tmp_path / "w1.0"), "lo", factor=0.8)
+  # the photometric fit is not broken: with the term on, Lo still fits its
+  # training views better than a constant image, and the held-out PSNR is finite
+  assert_trained(str(tmp_path / "w1.0"), "lo", c)
   assert np.isfinite(psnr[1.0])

@@ -17,6 +17,10 @@ dearer shows it.
   python experiments/ablations.py --study=fog --dry_run
   python experiments/ablations.py --study=fog --report_only
 
+A variant whose resolved config is that of a finished suite run (a method
+without overrides on the validation suite's terms) adopts that run's record
+instead of training it again (`adopted_from` names it).
+
 Each finished run writes results/ablations/<study>/<scene>/<variant>/seed<k>.json
 (committed; a run whose file exists is skipped, a killed one resumes from
 --scratch), and the report docs/results/ablation_<study>.md: per scene and
@@ -25,6 +29,7 @@ PSNR at the end of its stage, the steps each stage trained, and the
 difference from the study's reference variant.
 """
 import dataclasses
+import json
 import os
 import statistics
 import sys
@@ -33,8 +38,8 @@ import traceback
 
 from absl import flags, logging
 
-from halo_jax.bench import (benchmark, code_version, fronts_report, report_common, run_file,
-                            selection, suites, tool)
+from halo_jax.bench import (adopt, benchmark, code_version, fronts_report, report_common,
+                            run_file, selection, suites, tool)
 from halo_jax.bench.paths import REPO
 from halo_jax.bench.studies import MATCHED_STEPS, STUDIES, Study, Variant  # noqa: F401
 from halo_jax import progress, protocol, runs
@@ -96,7 +101,11 @@ def run_one(study_name, study, scene, variant, seed, results, scratch) -> dict:
   workdir = os.path.join(scratch, "ablations", study_name, scene.name, variant.name,
                          f"seed{seed}")
   start = time.time()
-  record = runs.run_method(c, workdir)
+  same = adopt.identical_suite_run(c, scene, variant.method, seed, results)
+  if same:
+    record = dict(same[1], adopted_from=os.path.relpath(same[0], results))
+  else:
+    record = runs.run_method(c, workdir)
   record.pop("per_view", None)
   if study.budget == "time" and study.front:
     record["front"] = benchmark.front_points(workdir, record, with_lpips=False)
@@ -111,7 +120,6 @@ def run_one(study_name, study, scene, variant, seed, results, scratch) -> dict:
 
 def read_records(results, study_name):
   """{(scene, variant): [record, ...]} of a study's finished runs."""
-  import json
   root = os.path.join(results, "ablations", study_name)
   out = {}
   if not os.path.isdir(root):
@@ -300,6 +308,10 @@ def report(study_name: str, study: Study, results: str) -> str:
                     for rs in recs.values() for r in rs})
   if commits:
     lines += ["", f"Commits: {', '.join(commits)}."]
+  adopted = sum(1 for rs in recs.values() for r in rs if r.get("adopted_from"))
+  if adopted:
+    lines += ["", f"{adopted} run(s) are a suite's runs of the same resolved config "
+              "(`adopted_from` in the record), not run again."]
   lines += _fingerprint_lines(study, recs)
   return "\n".join(lines) + "\n"
 

@@ -112,6 +112,20 @@ def load_results(results):
   return out
 
 
+def made_by(scenes) -> list:
+  """The page's line naming the commit and code tree each scene's grid was
+  run at, and whether that tree had uncommitted changes."""
+  groups = {}
+  for name, r in scenes.items():
+    git = r.get("provenance", {}).get("git") or {}
+    state = "modified" if git.get("dirty") or git.get("code_dirty") else "clean"
+    key = ((git.get("commit") or "?")[:7], git.get("code_tree") or "not recorded", state)
+    groups.setdefault(key, []).append(name)
+  return ["Made by: " + "; ".join(
+      f"commit {c} (code tree {t}, {state}): {', '.join(sorted(names))}"
+      for (c, t, state), names in sorted(groups.items())) + ".", ""]
+
+
 def auto_section(runs_root):
   """Markdown lines: halo_auto (suite 'auto') against the CPU suite's hand-set
   halo, per scene and seed, from the benchmark's result files."""
@@ -239,6 +253,7 @@ def report(scenes, docs, runs_root=None, views="test"):
       "Lo-NeRF's on the scene's "
       + ("validation views (docs/validation.md)" if views == "validation" else "held-out views")
       + "; for each scene the threshold is chosen on the other scenes only.", "",
+      *made_by(scenes),
       "| form of the rule | mean leave-one-out distance dB | threshold on all scenes |",
       "|---|---|---|"]
   for form, f in forms.items():

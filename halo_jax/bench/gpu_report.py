@@ -74,6 +74,21 @@ def _plot(scene, runs, path):
   plt.close()
 
 
+def _made_by(runs) -> str:
+  """Which commit the scene's runs were made at: the record's checkout note,
+  else its methods' provenance (and whether that tree was modified)."""
+  notes = {}
+  for r in runs:
+    if r.get("checkout"):
+      notes[r["checkout"]["commit"][:7]] = r["checkout"].get("why")
+      continue
+    for m in r["methods"].values():
+      git = (m.get("provenance") or {}).get("git") or {}
+      dirty = git.get("dirty") or git.get("code_dirty")
+      notes[(git.get("commit") or "?")[:7]] = "a modified tree" if dirty else None
+  return " ".join(f"Commit {c}" + (f" ({why})." if why else ".") for c, why in sorted(notes.items()))
+
+
 def page(by_scene, out_dir):
   """The page's markdown; writes each scene's curve plot into out_dir."""
   lines = ["# GPU runs (generated)", "",
@@ -84,7 +99,7 @@ def page(by_scene, out_dir):
     lines += [f"## {scene}", "",
               f"`{first['config']}`, {first['device']}, {first['budget_s']} s of training per "
               f"method, {first['methods'][next(iter(first['methods']))]['num_views']} held-out "
-              f"views, {first['date']}. Per seed:", "",
+              f"views, {first['date']}. {_made_by(runs)} Per seed:", "",
               tables.markdown(["seed", "method", "PSNR", "SSIM", "LPIPS (VGG)", "steps",
                                "training s"], _rows(runs)), ""]
     means, seeds = _means(runs)

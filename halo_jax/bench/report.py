@@ -30,7 +30,7 @@ import sys
 from absl import flags
 import numpy as np
 
-from halo_jax.bench import code_version, fronts_report, report_common, tool
+from halo_jax.bench import budget_report, code_version, fronts_report, report_common, tool
 from halo_jax.bench.paths import REPO
 from halo_jax.bench.report_common import BASELINE, METHOD_ORDER, in_method_order, stat
 from halo_jax.bench.suite_tables import (FAILURE_DROP_DB, claims, over_scenes_table,
@@ -259,14 +259,15 @@ def _fingerprint_note(versions, methods) -> str:
   return "Code fingerprints: " + "; ".join(parts) + "."
 
 
-def readme_block(all_suites, docs=None, versions=None):
+def readme_block(all_suites, docs=None, versions=None, budget_line=""):
   """The README's results: for a suite whose runs have fronts, HALO's and
   nerf_tuned's error against training time per scene (fronts_rows), the
   fronts figure (written to `docs` when given) and the count of scenes where
   HALO reaches nerf_tuned's end in at most half its time; for the others,
   each method's final PSNR per scene."""
   shown = {k: v for k, v in sorted(all_suites.items())
-           if k[0] not in ("smoke", "auto", "ingredients", "validation")
+           if k[0] not in ("smoke", "auto", "ingredients", "validation", "budget_60",
+                           "budget_960")
            and k[1] not in SUPERSEDED}
   has_front = {k: any(r.get("front") for by in scenes.values() for rs in by.values()
                       for r in rs) for k, scenes in shown.items()}
@@ -275,6 +276,8 @@ def readme_block(all_suites, docs=None, versions=None):
     if key in all_suites:
       out += [f"[`{key[0]}/{key[1]}`](docs/results/{key[0]}_{key[1]}.md), final PSNR: "
               + headline(all_suites[key], versions=(versions or {}).get(key)), ""]
+  if budget_line:
+    out += [budget_line, ""]
   finals = ["| suite | scene | " + " | ".join(METHOD_ORDER) + " |",
             "|---|---|" + "---|" * len(METHOD_ORDER)]
   for (suite, mode), scenes in shown.items():
@@ -329,7 +332,10 @@ def main(argv):
   for (suite, mode), scenes in sorted(suites.items()):
     name = write_suite(suite, mode, scenes, FLAGS.docs, versions[(suite, mode)])
     print("wrote", os.path.join(FLAGS.docs, name + ".md"))
-  if FLAGS.readme and update_readme(FLAGS.readme, readme_block(suites, FLAGS.docs, versions)):
+  budget_line = budget_report.write(suites, FLAGS.docs)
+  print("wrote", os.path.join(FLAGS.docs, budget_report.PAGE + ".md"))
+  if FLAGS.readme and update_readme(FLAGS.readme, readme_block(suites, FLAGS.docs, versions,
+                                                                budget_line)):
     print("updated", FLAGS.readme)
 
 

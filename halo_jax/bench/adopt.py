@@ -1,0 +1,44 @@
+"""A study's run that a suite has already made: the same resolved config, so
+the same figures (the code fingerprint checks the code), adopted instead of
+trained again (halo_jax/bench/ablations.py)."""
+import json
+import os
+
+from halo_jax import config_files, defaults, protocol
+from halo_jax.bench import benchmark, suites
+
+
+def _comparable(resolved: dict) -> dict:
+  """A resolved config's dotted fields, its scene folder without the
+  machine's data root (or, for a built-in scene, the scratch folder it was
+  generated in)."""
+  out = config_files.dotted_fields(json.loads(json.dumps(resolved)))
+  if out.get("data.kind") == "procedural":
+    out.pop("data.root", None)
+  elif out.get("data.root"):
+    out["data.root"] = os.path.join(*os.path.normpath(out["data.root"]).split(os.sep)[-2:])
+  return out
+
+
+def _same_config(mine: dict, theirs: dict) -> bool:
+  """Equal dotted configs, a field the older record lacks counting as equal
+  where `mine` has its default (a field added since, whose default is the
+  behaviour before it: the code fingerprint checks that)."""
+  base = config_files.dotted_fields(json.loads(defaults.base_config().to_json_best_effort()))
+  return (all(mine.get(k) == v for k, v in theirs.items())
+          and all(k in base and base[k] == v for k, v in mine.items() if k not in theirs))
+
+
+def identical_suite_run(c, scene, method, seed, results):
+  """(path, record) of a finished suite run (mode 'budget') whose resolved
+  config is `c`'s, or None: a variant without overrides on the validation
+  suite's terms is that suite's run, and its figures are already measured."""
+  mine = _comparable(json.loads(protocol.resolve(c).to_json_best_effort()))
+  for name in sorted(suites.SUITES):
+    path = benchmark.result_path(results, name, "budget", scene, method, seed)
+    if os.path.exists(path):
+      with open(path) as f:
+        record = json.load(f)
+      if _same_config(mine, _comparable(record["resolved_config"])):
+        return path, record
+  return None

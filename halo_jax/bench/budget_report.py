@@ -1,0 +1,235 @@
+"""The budget study's page (docs/results/budget_study.md): HALO against
+nerf_tuned at a quarter, one and four times the validation suite's budget.
+
+The three points are suites of one protocol (halo_jax/bench/suites.py,
+BUDGET_STUDY): budget_60, validation (240 reference seconds) and budget_960,
+each on the study's scenes (BUDGET_SCENES) and its validation views, pooled
+by code fingerprint as every suite page is (report.pool). Per scene kind it
+says whether HALO's lead grows, holds or shrinks with the budget, and, from
+the 960-s runs' curves, where nerf_tuned's held-out PSNR stops rising while
+its training PSNR still climbs. Nothing here is typed by hand.
+"""
+import os
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # pylint: disable=g-import-not-at-top
+import numpy as np  # pylint: disable=g-import-not-at-top
+
+from halo_jax.bench import suites  # pylint: disable=g-import-not-at-top
+from halo_jax.bench.report_common import BASELINE, stat  # pylint: disable=g-import-not-at-top
+from halo_jax.bench.suite_tables import scene_kind  # pylint: disable=g-import-not-at-top
+
+METHOD = "halo"
+PAGE = "budget_study"
+# A lead that moves less than this between the smallest and largest budget
+# holds (the size of the project's rule for a default: 0.3 dB).
+TREND_DB = 0.3
+# Training PSNR is a batch's; its level at a time is the median of the
+# records within this many reference seconds either side.
+TRAIN_WINDOW_S = 60.0
+
+
+def study(all_suites) -> dict:
+  """{budget_s: {scene: {method: [record]}}} from report's pooled suites
+  ({(suite, mode): {scene: {method: [record]}}}), the study's scenes only."""
+  out = {}
+  for name, budget_s in suites.BUDGET_STUDY.items():
+    scenes = all_suites.get((name, "budget"), {})
+    out[budget_s] = {s: by for s, by in scenes.items() if s in suites.BUDGET_SCENES}
+  return out
+
+
+def lead(by_method):
+  """halo's mean PSNR less nerf_tuned's (None unless both ran)."""
+  if METHOD not in by_method or BASELINE not in by_method:
+    return None
+  return (np.mean([r["psnr"] for r in by_method[METHOD]])
+          - np.mean([r["psnr"] for r in by_method[BASELINE]]))
+
+
+def trend(leads) -> str:
+  """'grows', 'holds' or 'shrinks': the lead at the largest budget against
+  the smallest, by TREND_DB."""
+  budgets = sorted(b for b, v in leads.items() if v is not None)
+  if len(budgets) < 2:
+    return "-"
+  change = leads[budgets[-1]] - leads[budgets[0]]
+  return "grows" if change >= TREND_DB else "shrinks" if change <= -TREND_DB else "holds"
+
+
+def _train_level(records, at_s):
+  """Median training PSNR within TRAIN_WINDOW_S of `at_s`, over the runs."""
+  pts = [p for r in records for t, p in r.get("train_curve", [])
+         if abs(t - at_s) <= TRAIN_WINDOW_S]
+  return float(np.median(pts)) if pts else None
+
+
+def overfitting(records) -> dict:
+  """Where a method's held-out curve (mean over runs, on its curve views)
+  peaks, and what its held-out and training PSNR do from there to the end:
+  {'peak_s', 'peak', 'end_s', 'heldout_change', 'train_change'} (None where a
+  run lacks a curve)."""
+  curves = [np.asarray(r["curve"], np.float64) for r in records if r.get("curve")]
+  if not curves or len({len(c) for c in curves}) != 1:
+    return None
+  t = curves[0][:, 0]
+  mean = np.mean([c[:, 1] for c in curves], 0)
+  i = int(np.argmax(mean))
+  train_peak, train_end = _train_level(records, t[i]), _train_level(records, t[-1])
+  return {"peak_s": float(t[i]), "peak": float(mean[i]), "end_s": float(t[-1]),
+          "heldout_change": float(mean[-1] - mean[i]),
+          "train_change": (None if train_peak is None or train_end is None
+                           else train_end - train_peak)}
+
+
+def overfitting_sentence(method, o) -> str:
+  if o is None:
+    return f"{method}: no curve."
+  if o["peak_s"] >= o["end_s"]:
+    return (f"{method}'s held-out PSNR still rises at {o['end_s']:.0f} s "
+            f"({o['peak']:.2f} dB on the curve views).")
+  train = ("" if o["train_change"] is None else
+           f", while its training PSNR moves {o['train_change']:+.2f} dB")
+  return (f"{method}'s held-out PSNR peaks at {o['peak_s']:.0f} s ({o['peak']:.2f} dB on "
+          f"the curve views) and moves {o['heldout_change']:+.2f} dB by "
+          f"{o['end_s']:.0f} s{train}.")
+
+
+def scene_rows(by_budget, scene):
+  rows = []
+  for m in (BASELINE, METHOD):
+    cells = []
+    for b in sorted(by_budget):
+      rs = by_budget[b].get(scene, {}).get(m, [])
+      cells.append(f"{stat([r['psnr'] for r in rs])[0]} ({len(rs)})" if rs else "-")
+    rows.append(f"| {m} | " + " | ".join(cells) + " |")
+  lo = {b: [r["stages"]["lo"]["psnr"] for r in by_budget[b].get(scene, {}).get(METHOD, [])
+            if "psnr" in r.get("stages", {}).get("lo", {})] for b in by_budget}
+  if any(lo.values()):
+    rows.append("| halo's Lo-NeRF | " + " | ".join(
+        f"{stat(lo[b])[0]}" if lo[b] else "-" for b in sorted(by_budget)) + " |")
+    gain = {b: (np.mean([r["psnr"] for r in by_budget[b][scene][METHOD]]) - np.mean(lo[b])
+                if lo[b] else None) for b in by_budget}
+    rows.append("| Hi − Lo | " + " | ".join(
+        "-" if gain[b] is None else f"{gain[b]:+.2f}" for b in sorted(by_budget)) + " |")
+  leads = {b: lead(by_budget[b].get(scene, {})) for b in by_budget}
+  rows.append("| Δ halo − nerf_tuned | " + " | ".join(
+      "-" if leads[b] is None else f"{leads[b]:+.2f}" for b in sorted(by_budget)) + " |")
+  return rows, leads
+
+
+def plot_scene(by_budget, scene, path):
+  """Left: each run's final PSNR (all validation views) against its budget,
+  a line through the means. Right: each run's own held-out curve (curve
+  views) and, for the 960-s runs, its training PSNR."""
+  fig, (left, right) = plt.subplots(1, 2, figsize=(10, 3.8))
+  for i, m in enumerate((BASELINE, METHOD)):
+    means = []
+    for b in sorted(by_budget):
+      rs = by_budget[b].get(scene, {}).get(m, [])
+      left.plot([b] * len(rs), [r["psnr"] for r in rs], "o", color=f"C{i}", ms=4, alpha=0.6)
+      means.append((b, np.mean([r["psnr"] for r in rs])) if rs else None)
+      for r in rs:
+        if r.get("curve"):
+          right.plot(*np.asarray(r["curve"]).T, "-", color=f"C{i}",
+                     lw=1.6 if b == max(by_budget) else 0.8, alpha=0.9)
+        if b == max(by_budget) and r.get("train_curve"):
+          right.plot(*np.asarray(r["train_curve"]).T, ":", color=f"C{i}", lw=0.8, alpha=0.6)
+    pts = [p for p in means if p is not None]
+    if pts:
+      left.plot(*zip(*pts), "-", color=f"C{i}", label=m)
+      right.plot([], [], "-", color=f"C{i}", label=f"{m} held-out")
+      right.plot([], [], ":", color=f"C{i}", label=f"{m} training batches")
+  left.set_xscale("log")
+  left.set_xticks(sorted(by_budget), [f"{b:g}" for b in sorted(by_budget)])
+  left.set_xlabel("budget (reference seconds)")
+  left.set_ylabel("final PSNR (dB), validation views")
+  right.set_xlabel("reference seconds")
+  right.set_ylabel("PSNR (dB)")
+  for ax in (left, right):
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=7)
+  fig.suptitle(scene, fontsize=10)
+  fig.tight_layout()
+  fig.savefig(path, dpi=100)
+  plt.close(fig)
+
+
+def mean_leads(by_budget):
+  """{budget: mean over the scenes with both methods at every budget of the lead}."""
+  scenes = [s for s in suites.BUDGET_SCENES
+            if all(lead(by_budget[b].get(s, {})) is not None for b in by_budget)]
+  return {b: (float(np.mean([lead(by_budget[b][s]) for s in scenes])) if scenes else None)
+          for b in by_budget}, scenes
+
+
+def readme_sentence(by_budget) -> str:
+  """The README's line: the mean lead at each budget and where HALO trails
+  at the largest (empty until every budget has a scene with both methods)."""
+  means, scenes = mean_leads(by_budget)
+  if not scenes:
+    return ""
+  top = max(by_budget)
+  behind = [s for s in scenes if lead(by_budget[top][s]) <= 0]
+  figures = ", ".join(f"{means[b]:+.2f} dB at {b:g}" for b in sorted(means))
+  return (f"[Budget study](docs/results/{PAGE}.md), validation views, {len(scenes)} scenes: "
+          f"halo − nerf_tuned {figures} reference seconds; the lead {trend(means)} with "
+          "the budget" + (f", and at {top:g} s HALO trails on {', '.join(behind)}." if behind
+                          else f", and at {top:g} s HALO leads on every scene."))
+
+
+def write(all_suites, docs) -> str:
+  """Writes the page and its figures; returns the README sentence."""
+  by_budget = study(all_suites)
+  budgets = sorted(by_budget)
+  head = "| method | " + " | ".join(f"{b:g} s" for b in budgets) + " |"
+  out = ["# Budget study: where HALO's lead holds", "",
+         "Generated by `python experiments/report.py` from `results/budget_60/`, "
+         "`results/validation/` and `results/budget_960/` (the study's scenes); do not edit. "
+         "Runs: `halo-bench --suite=budget_60` and `--suite=budget_960` (the 240-s point is "
+         "the validation suite's). Every run is on the validation suite's terms: the `budget` "
+         "protocol's reference seconds (the same steps on any machine), one core, each "
+         "scene's validation views. PSNR is the mean ± std over seeds (seeds in brackets) on "
+         "every validation view; the curves are on the first two (`eval.curve_views`). "
+         "`halo's Lo-NeRF` is its PSNR at the end of its stage on the same views, `Hi − Lo` "
+         "what Hi-NeRF adds to it.", "",
+         "HALO's Lo-NeRF and ray field have step caps (1500 and 3000 in the CPU configs): at "
+         "960 s they reach them, and the rest of the budget goes to Hi-NeRF.", ""]
+  means, scenes = mean_leads(by_budget)
+  if scenes:
+    out += ["## Over scenes", "", f"Mean over {', '.join(scenes)} (each scene weighs the "
+            "same) of halo − nerf_tuned: " + ", ".join(
+                f"{means[b]:+.2f} dB at {b:g} s" for b in budgets)
+            + f"; the lead {trend(means)} (by {TREND_DB} dB from {budgets[0]:g} to "
+            f"{budgets[-1]:g} s).", ""]
+  out += ["## Per scene kind", "", "| kind | scenes | " + " | ".join(
+      f"Δ at {b:g} s" for b in budgets) + " | the lead |", "|---|---|" + "---|" * len(budgets)
+      + "---|"]
+  kinds = {}
+  for s in suites.BUDGET_SCENES:
+    recs = [r for b in budgets for rs in by_budget[b].get(s, {}).values() for r in rs]
+    if recs:
+      kinds.setdefault(scene_kind(recs[0]["config"]), []).append(s)
+  for kind, names in sorted(kinds.items()):
+    leads = {b: [lead(by_budget[b].get(s, {})) for s in names] for b in budgets}
+    leads = {b: (float(np.mean(v)) if all(x is not None for x in v) else None)
+             for b, v in leads.items()}
+    out.append(f"| {kind} | {', '.join(names)} | " + " | ".join(
+        "-" if leads[b] is None else f"{leads[b]:+.2f}" for b in budgets)
+        + f" | {trend(leads)} |")
+  out.append("")
+  for s in suites.BUDGET_SCENES:
+    if not any(s in by_budget[b] for b in budgets):
+      continue
+    rows, _ = scene_rows(by_budget, s)
+    png = f"{PAGE}_{s}.png"
+    plot_scene(by_budget, s, os.path.join(docs, png))
+    top = by_budget[budgets[-1]].get(s, {})
+    out += [f"## {s}", "", head, "|---|" + "---|" * len(budgets), *rows, "",
+            *(f"- {overfitting_sentence(m, overfitting(top[m]))}" for m in (BASELINE, METHOD)
+              if m in top), "", f"![{s}]({png})", ""]
+  with open(os.path.join(docs, f"{PAGE}.md"), "w") as f:
+    f.write("\n".join(out))
+  return readme_sentence(by_budget)
