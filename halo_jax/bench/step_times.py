@@ -37,7 +37,7 @@ import time
 from absl import flags, logging
 
 from halo_jax import pipeline, protocol, provenance, step_table
-from halo_jax.bench import benchmark, selection, suites, tool
+from halo_jax.bench import benchmark, selection, studies, suites, tool
 
 FLAGS = flags.FLAGS
 flags.DEFINE_string("table", step_table.TABLE, "The table to write.")
@@ -58,10 +58,15 @@ RECORD_SEEDS = (0, 1)
 SUITES = (("cpu", suites.CPU, suites.CPU.scenes),
           ("validation", suites.CPU, suites.VALIDATION_SCENES),
           ("smoke", suites.SMOKE, suites.SMOKE.scenes),
-          # the authors' recipe in its studies (halo_jax/bench/studies.py)
+          # the authors' recipe in its studies (halo_jax/bench/studies.py),
+          # with each study variant's changes to it
           ("authors", suites.CPU, tuple(
               dataclasses.replace(s, methods=("halo_authors",))
-              for s in suites.VALIDATION_SCENES if not s.name.startswith("dnerf_"))))
+              for s in suites.VALIDATION_SCENES if not s.name.startswith("dnerf_"))
+           + tuple(dataclasses.replace(s, methods=("halo_authors",),
+                                       overrides=s.overrides + v.overrides)
+                   for study in studies.STUDIES.values() for v in study.variants
+                   if v.method == "halo_authors" and v.overrides for s in study.scenes)))
 
 
 def pairs(only: str = ""):

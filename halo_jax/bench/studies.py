@@ -269,6 +269,16 @@ STUDIES = {
         variants=(
             Variant("halo", "halo", note="ours (the CPU config)"),
             Variant("halo_authors", "halo_authors", note="the authors' recipe at CPU size"),
+            # two of halo's departures, one at a time, in the authors' recipe
+            Variant("halo_authors+fg_start", "halo_authors",
+                    (("lo.precrop_steps", 0), ("lo.fg_steps", 200), ("lo.fg_fraction", 0.5)),
+                    "Lo without the centre crop, half of its first 200 batches from the "
+                    "foreground (halo's start)"),
+            Variant("halo_authors+lo_copy", "halo_authors",
+                    (("hi.encoding.with_lo", True), ("hi.init_from_lo", True),
+                     ("hi.init_skip_fresh", False)),
+                    "Hi reads Lo's encoding beside its own and starts from all of Lo's "
+                    "weights (halo's start)"),
         ),
         reference="halo", seeds=2, budget="time", front=False),
     "static_front": Study(
