@@ -296,9 +296,9 @@ def _budget_record(psnr, config, curve=(), train=()):
 
 def test_budget_study_reads_the_lead_and_where_the_baseline_stops_improving(tmp_path):
   from halo_jax.bench import budget_report
-  assert budget_report.trend({60.0: 1.0, 240.0: 0.8, 960.0: 0.5}) == "shrinks"
+  assert budget_report.trend({60.0: 1.0, 240.0: 0.8, 960.0: 0.5}) == "falls"
   assert budget_report.trend({60.0: 0.1, 960.0: 0.3}) == "holds"
-  assert budget_report.trend({60.0: -0.2, 960.0: 0.3}) == "grows"
+  assert budget_report.trend({60.0: -0.2, 960.0: 0.3}) == "rises"
   # nerf_tuned at 960 s: held-out peaks at 240 s (mean over seeds 22.0) and ends
   # 0.5 dB lower, while its training batches go from 25 to 27 dB
   curve = lambda top: [(120, 20.0), (240, top), (360, top - 0.5)]  # noqa: E731
@@ -316,8 +316,8 @@ def test_budget_study_reads_the_lead_and_where_the_baseline_stops_improving(tmp_
             ("budget_960", "budget"): {lego: {"nerf_tuned": base, "halo": halo(20.0)}}}
   line = budget_report.write(suites, str(tmp_path))
   page = (tmp_path / "budget_study.md").read_text()
-  # lead 1.0 at 60 s, 0.5 at 240 s, -0.1 at 960 s: it shrinks, and HALO trails at 960 s
-  assert "| blender | lego_8view | +1.00 | +0.50 | -0.10 | shrinks |" in page
+  # lead 1.0 at 60 s, 0.5 at 240 s, -0.1 at 960 s: it falls, and HALO trails at 960 s
+  assert "| blender | lego_8view | +1.00 | +0.50 | -0.10 | falls |" in page
   assert "spheres" not in page                      # not a scene of the study
   assert "nerf_tuned's held-out PSNR peaks at 240 s (22.00 dB" in page
   assert "moves -0.50 dB by 360 s, while its training PSNR moves +2.00 dB" in page

@@ -5,13 +5,14 @@ The three points are suites of one protocol (halo_jax/bench/suites.py,
 BUDGET_STUDY): budget_60, validation (240 reference seconds) and budget_960,
 each on the study's scenes (BUDGET_SCENES) and its validation views, pooled
 by code fingerprint as every suite page is (report.pool). Per scene kind it
-says whether HALO's lead grows, holds or shrinks with the budget, and, from
+says whether HALO's margin rises, holds or falls with the budget, and, from
 the 960-s runs' curves, where nerf_tuned's held-out PSNR stops rising while
 its training PSNR still climbs. Nothing here is typed by hand.
 """
 import os
 
 import matplotlib
+import matplotlib.ticker
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # pylint: disable=g-import-not-at-top
@@ -50,13 +51,13 @@ def lead(by_method):
 
 
 def trend(leads) -> str:
-  """'grows', 'holds' or 'shrinks': the lead at the largest budget against
-  the smallest, by TREND_DB."""
+  """'rises', 'holds' or 'falls': HALO's margin (its lead, negative where it
+  trails) at the largest budget against the smallest, by TREND_DB."""
   budgets = sorted(b for b, v in leads.items() if v is not None)
   if len(budgets) < 2:
     return "-"
   change = leads[budgets[-1]] - leads[budgets[0]]
-  return "grows" if change >= TREND_DB else "shrinks" if change <= -TREND_DB else "holds"
+  return "rises" if change >= TREND_DB else "falls" if change <= -TREND_DB else "holds"
 
 
 def _train_level(records, at_s):
@@ -144,6 +145,7 @@ def plot_scene(by_budget, scene, path):
       right.plot([], [], ":", color=f"C{i}", label=f"{m} training batches")
   left.set_xscale("log")
   left.set_xticks(sorted(by_budget), [f"{b:g}" for b in sorted(by_budget)])
+  left.xaxis.set_minor_locator(matplotlib.ticker.NullLocator())
   left.set_xlabel("budget (reference seconds)")
   left.set_ylabel("final PSNR (dB), validation views")
   right.set_xlabel("reference seconds")
@@ -175,7 +177,7 @@ def readme_sentence(by_budget) -> str:
   behind = [s for s in scenes if lead(by_budget[top][s]) <= 0]
   figures = ", ".join(f"{means[b]:+.2f} dB at {b:g}" for b in sorted(means))
   return (f"[Budget study](docs/results/{PAGE}.md), validation views, {len(scenes)} scenes: "
-          f"halo − nerf_tuned {figures} reference seconds; the lead {trend(means)} with "
+          f"halo − nerf_tuned {figures} reference seconds; HALO's margin {trend(means)} with "
           "the budget" + (f", and at {top:g} s HALO trails on {', '.join(behind)}." if behind
                           else f", and at {top:g} s HALO leads on every scene."))
 
@@ -202,10 +204,10 @@ def write(all_suites, docs) -> str:
     out += ["## Over scenes", "", f"Mean over {', '.join(scenes)} (each scene weighs the "
             "same) of halo − nerf_tuned: " + ", ".join(
                 f"{means[b]:+.2f} dB at {b:g} s" for b in budgets)
-            + f"; the lead {trend(means)} (by {TREND_DB} dB from {budgets[0]:g} to "
+            + f"; HALO's margin {trend(means)} (by {TREND_DB} dB from {budgets[0]:g} to "
             f"{budgets[-1]:g} s).", ""]
   out += ["## Per scene kind", "", "| kind | scenes | " + " | ".join(
-      f"Δ at {b:g} s" for b in budgets) + " | the lead |", "|---|---|" + "---|" * len(budgets)
+      f"Δ at {b:g} s" for b in budgets) + " | HALO's margin |", "|---|---|" + "---|" * len(budgets)
       + "---|"]
   kinds = {}
   for s in suites.BUDGET_SCENES:
