@@ -126,3 +126,31 @@ def test_smoke_suite_writes_and_skips(tmp_path):
                                                   0), "hi", "snapshots"))
   with pytest.raises(RuntimeError, match="has no snapshots"):
     benchmark.run_one("smoke", suites.SMOKE, scene, "nerf_tuned", 0, "budget", results, scratch)
+
+
+def test_the_budget_studys_suites_are_the_validation_suite_at_other_budgets(tmp_path):
+  # the 60- and 960-s points differ from the validation suite's 240-s runs in
+  # the budget alone: same terms, same scene configs, one scene of each kind
+  from halo_jax.bench import benchmark, suites
+  from halo_jax.configure import set_field
+  assert suites.BUDGET_STUDY == {"budget_60": 60.0, "validation": 240.0, "budget_960": 960.0}
+  kinds = set()
+  for name, budget_s in suites.BUDGET_STUDY.items():
+    suite = suites.SUITES[name]
+    assert suite.budget_s == budget_s and suite.cores == suites.VALIDATION.cores
+    assert suite.overrides == suites.VALIDATION.overrides and suite.front_s == ()
+  for scene in suites.BUDGET_60.scenes:
+    same = next(s for s in suites.VALIDATION.scenes if s.name == scene.name)
+    assert scene == same
+    kinds.add(scene.config.split(":")[0])
+    for method in scene.methods:
+      a = benchmark.configure(suites.BUDGET_960, scene, method, 0, "budget", str(tmp_path))
+      b = benchmark.configure(suites.VALIDATION, same, method, 0, "budget", str(tmp_path))
+      set_field(b, "budget_s", 960.0)
+      for n in ("lo", "ray", "hi"):   # the curve's spacing follows the budget
+        if n in a.stages:
+          set_field(b, f"{n}.eval_every_s", a[n].eval_every_s)
+      assert a.to_json_best_effort() == benchmark.protocol.resolve(b).to_json_best_effort()
+  assert kinds == {"configs/blender.py", "configs/dnerf.py", "configs/llff.py",
+                   "configs/stanford_lf.py"}
+  assert suites.BUDGET_960.scenes == suites.BUDGET_60.scenes
