@@ -294,8 +294,12 @@ def _budget_record(psnr, config, curve=(), train=()):
           "train_curve": [list(p) for p in train]}
 
 
-def test_budget_study_reads_the_lead_and_where_the_baseline_stops_improving(tmp_path):
+def test_budget_study_reads_the_lead_and_where_the_baseline_stops_improving(tmp_path,
+                                                                          monkeypatch):
   from halo_jax.bench import budget_report
+  # a study of one scene here; the README's line waits for every scene of the study
+  monkeypatch.setattr(budget_report.suites, "BUDGET_SCENES", ("lego_8view", "knights"))
+  assert budget_report.readme_sentence({60.0: {}, 960.0: {}}) == ""
   assert budget_report.trend({60.0: 1.0, 240.0: 0.8, 960.0: 0.5}) == "falls"
   assert budget_report.trend({60.0: 0.1, 960.0: 0.3}) == "holds"
   assert budget_report.trend({60.0: -0.2, 960.0: 0.3}) == "rises"
@@ -314,6 +318,8 @@ def test_budget_study_reads_the_lead_and_where_the_baseline_stops_improving(tmp_
             ("validation", "budget"): {lego: {"nerf_tuned": base, "halo": halo(20.6)},
                                        "spheres": {"halo": halo(30.0)}},
             ("budget_960", "budget"): {lego: {"nerf_tuned": base, "halo": halo(20.0)}}}
+  assert budget_report.write(suites, str(tmp_path)) == ""    # knights has no runs
+  monkeypatch.setattr(budget_report.suites, "BUDGET_SCENES", ("lego_8view",))
   line = budget_report.write(suites, str(tmp_path))
   page = (tmp_path / "budget_study.md").read_text()
   # lead 1.0 at 60 s, 0.5 at 240 s, -0.1 at 960 s: it falls, and HALO trails at 960 s

@@ -169,9 +169,10 @@ def mean_leads(by_budget):
 
 def readme_sentence(by_budget) -> str:
   """The README's line: the mean lead at each budget and where HALO trails
-  at the largest (empty until every budget has a scene with both methods)."""
+  at the largest (empty until every scene of the study has both methods at
+  every budget)."""
   means, scenes = mean_leads(by_budget)
-  if not scenes:
+  if len(scenes) < len(suites.BUDGET_SCENES):  # a partial study says nothing in the README
     return ""
   top = max(by_budget)
   behind = [s for s in scenes if lead(by_budget[top][s]) <= 0]
