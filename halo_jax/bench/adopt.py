@@ -1,6 +1,7 @@
 """A study's run that a suite has already made: the same resolved config, so
 the same figures (the code fingerprint checks the code), adopted instead of
 trained again (halo_jax/bench/ablations.py)."""
+import functools
 import json
 import os
 
@@ -12,7 +13,7 @@ def _comparable(resolved: dict) -> dict:
   """A resolved config's dotted fields, its scene folder without the
   machine's data root (or, for a built-in scene, the scratch folder it was
   generated in)."""
-  out = config_files.dotted_fields(json.loads(json.dumps(resolved)))
+  out = config_files.dotted_fields(resolved)  # a new dict: `resolved` is not changed
   if out.get("data.kind") == "procedural":
     out.pop("data.root", None)
   elif out.get("data.root"):
@@ -20,11 +21,17 @@ def _comparable(resolved: dict) -> dict:
   return out
 
 
+@functools.lru_cache(maxsize=1)
+def _defaults() -> dict:
+  """The base config's dotted fields (what a field added since a record means)."""
+  return config_files.dotted_fields(json.loads(defaults.base_config().to_json_best_effort()))
+
+
 def _same_config(mine: dict, theirs: dict) -> bool:
   """Equal dotted configs, a field the older record lacks counting as equal
   where `mine` has its default (a field added since, whose default is the
   behaviour before it: the code fingerprint checks that)."""
-  base = config_files.dotted_fields(json.loads(defaults.base_config().to_json_best_effort()))
+  base = _defaults()
   return (all(mine.get(k) == v for k, v in theirs.items())
           and all(k in base and base[k] == v for k, v in mine.items() if k not in theirs))
 
