@@ -330,3 +330,34 @@ def test_budget_study_reads_the_lead_and_where_the_baseline_stops_improving(tmp_
   assert (tmp_path / "budget_study_lego_8view.png").exists()
   assert "+1.00 dB at 60, +0.50 dB at 240, -0.10 dB at 960 reference seconds" in line
   assert "HALO trails on lego_8view" in line
+
+
+def test_budget_study_says_what_its_probes_measured(tmp_path, monkeypatch):
+  from halo_jax.bench import budget_report
+  monkeypatch.setattr(budget_report.suites, "BUDGET_SCENES", ("lego_8view",))
+  folder = tmp_path / "results" / "budget_960" / "probe" / "lego_8view"
+  folder.mkdir(parents=True)
+  psnr = {"own": 22.0, "own_twice_samples": 22.5, "baseline_sampler": 22.2,
+          "twice_baseline_samples": 22.6, "nerf_tuned": 22.1, "nerf_tuned_twice_samples": 22.3}
+  guide = {"window": 0.3, "num_samples": 32, "mean_window_share": 0.6,
+           "hi_surface_in_window": 0.99, "error_share_where_window_misses": 0.02,
+           "median_to_hi_surface": 0.07, "median_hi_to_baseline_surface": 0.004}
+  for seed, shift in ((0, 0.0), (1, 0.2)):
+    probe = {"psnr": {k: v + shift for k, v in psnr.items()}, "guide": guide,
+             "empty_share": {"first": 0.002, "last": 0.01},
+             "background_acc": {"halo": 0.005, "nerf_tuned": 0.008}}
+    (folder / f"seed{seed}.json").write_text(json.dumps(probe))
+  lego = {"nerf_tuned": [_budget_record(20.0, "configs/blender.py:lego_8view_cpu")],
+          "halo": [_budget_record(20.5, "configs/blender.py:lego_8view_cpu")]}
+  suites = {(n, "budget"): {"lego_8view": lego} for n in ("budget_60", "validation",
+                                                           "budget_960")}
+  budget_report.write(suites, str(tmp_path), str(tmp_path / "results"))
+  page = (tmp_path / "budget_study.md").read_text()
+  assert "| 960 s | lego_8view (2) | 22.10 | 22.60 | 22.30 | 22.70 | 22.20 | 22.40 |" in page
+  assert "Hi +0.50 dB with its own sampler, nerf_tuned +0.20 dB" in page
+  assert "Hi's field is +0.30 dB from nerf_tuned's" in page
+  assert "spans 60% of [near, far] (32 samples) and holds Hi's surface on 99.0%" in page
+  assert "L_empty is 0.20% of Hi's loss over its first quarter and 1.00% over its last" in page
+  # no probes: no section
+  budget_report.write(suites, str(tmp_path), str(tmp_path / "none"))
+  assert "What sets the margin" not in (tmp_path / "budget_study.md").read_text()

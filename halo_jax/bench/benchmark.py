@@ -28,7 +28,7 @@ import traceback
 from absl import flags, logging
 
 from halo_jax.bench import run_file, selection, suites, tool
-from halo_jax.bench.paths import REPO
+from halo_jax.bench.paths import REPO, result_path, workdir_of  # the last two re-exported
 from halo_jax import defaults, progress, protocol, runs
 from halo_jax.configure import load as method_config, set_field
 from halo_jax.stages import collapse
@@ -65,10 +65,6 @@ def plan(suite: suites.Suite, only: str = ""):
                           part="method", plan="suite")
 
 
-def result_path(results, suite_name, mode, scene, method, seed):
-  return os.path.join(results, suite_name, mode, scene.name, method, f"seed{seed}.json")
-
-
 def configure(suite: suites.Suite, scene: suites.Scene, method: str, seed: int, mode: str,
               scratch: str):
   """The run's config: the scene's config as `method`, this seed and mode."""
@@ -97,10 +93,6 @@ def configure(suite: suites.Suite, scene: suites.Scene, method: str, seed: int, 
       # the curve's points evenly spread over the method's steps
       c[n].eval_every = max(1, int(suite.steps / suite.curve_points))
   return protocol.resolve(c)
-
-
-def workdir_of(scratch, suite_name, mode, scene, method, seed):
-  return os.path.join(scratch, suite_name, mode, scene.name, method, f"seed{seed}")
 
 
 def score_validation(workdir: str, record: dict, split: str) -> dict:

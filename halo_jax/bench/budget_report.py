@@ -18,7 +18,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # pylint: disable=g-import-not-at-top
 import numpy as np  # pylint: disable=g-import-not-at-top
 
-from halo_jax.bench import suites  # pylint: disable=g-import-not-at-top
+from halo_jax.bench import run_file, suites  # pylint: disable=g-import-not-at-top
 from halo_jax.bench.report_common import BASELINE, stat  # pylint: disable=g-import-not-at-top
 from halo_jax.bench.suite_tables import scene_kind  # pylint: disable=g-import-not-at-top
 
@@ -183,8 +183,90 @@ def readme_sentence(by_budget) -> str:
                           else f", and at {top:g} s HALO leads on every scene."))
 
 
-def write(all_suites, docs) -> str:
-  """Writes the page and its figures; returns the README sentence."""
+def probes(results) -> dict:
+  """{(budget_s, scene): [probe, ...]} of the study's probe files
+  (budget_probe.py) under `results`."""
+  out = {}
+  for name, budget_s in suites.BUDGET_STUDY.items():
+    for scene in suites.BUDGET_SCENES:
+      folder = os.path.join(results, name, "probe", scene)
+      if os.path.isdir(folder):
+        out[(budget_s, scene)] = [run_file.read(os.path.join(folder, f))
+                                  for f in sorted(os.listdir(folder)) if f.endswith(".json")]
+  return {k: v for k, v in out.items() if v}
+
+
+def _mean(ps, *keys):
+  """Mean over probes of ps[i][keys[0]][keys[1]]...; None where one lacks it."""
+  vals = []
+  for p in ps:
+    for k in keys:
+      p = p.get(k) if isinstance(p, dict) else None
+    vals.append(p)
+  return None if any(v is None for v in vals) else float(np.mean(vals))
+
+
+def probe_sentences(ps) -> list:
+  """What the probes of one scene and budget measured, in words."""
+  own, own2 = _mean(ps, "psnr", "own"), _mean(ps, "psnr", "own_twice_samples")
+  field2, base2 = (_mean(ps, "psnr", "twice_baseline_samples"),
+                   _mean(ps, "psnr", f"{BASELINE}_twice_samples"))
+  lines = [f"Twice the samples at evaluation: Hi {own2 - own:+.2f} dB with its own sampler, "
+           f"{BASELINE} {base2 - _mean(ps, 'psnr', BASELINE):+.2f} dB. With {BASELINE}'s "
+           f"sampler at twice its samples, Hi's field is {field2 - base2:+.2f} dB from "
+           f"{BASELINE}'s."]
+  if _mean(ps, "guide", "window") is not None:
+    lines.append(
+        f"The ray field's window spans {100 * _mean(ps, 'guide', 'mean_window_share'):.0f}% "
+        f"of [near, far] ({ps[0]['guide']['num_samples']} samples) and holds Hi's surface on "
+        f"{100 * _mean(ps, 'guide', 'hi_surface_in_window'):.1f}% of the opaque rays; the "
+        "rays it misses carry "
+        f"{100 * _mean(ps, 'guide', 'error_share_where_window_misses'):.1f}% of Hi's squared "
+        f"error. Its depth is {100 * _mean(ps, 'guide', 'median_to_hi_surface'):.1f}% of the "
+        "range from Hi's surface (median); Hi's and nerf_tuned's surfaces are "
+        f"{100 * _mean(ps, 'guide', 'median_hi_to_baseline_surface'):.1f}% apart.")
+  if _mean(ps, "empty_share", "first") is not None:
+    lines.append(f"L_empty is {100 * _mean(ps, 'empty_share', 'first'):.2f}% of Hi's loss over "
+                 f"its first quarter and {100 * _mean(ps, 'empty_share', 'last'):.2f}% over "
+                 "its last.")
+  if _mean(ps, "background_acc", METHOD) is not None:
+    lines.append(f"Opacity on the background pixels: halo "
+                 f"{_mean(ps, 'background_acc', METHOD):.4f}, {BASELINE} "
+                 f"{_mean(ps, 'background_acc', BASELINE):.4f}.")
+  return lines
+
+
+def probe_section(by_key) -> list:
+  """The page's section on the probes: a table of re-rendered PSNRs and, per
+  scene and budget, what they say."""
+  if not by_key:
+    return []
+  cols = ("own", "own_twice_samples", "baseline_sampler", "twice_baseline_samples", BASELINE,
+          f"{BASELINE}_twice_samples")
+  out = ["## What sets the margin", "",
+         "`python -m halo_jax.bench.budget_probe --suite=SUITE --scratch=DIR` re-renders a "
+         "finished pair of runs (halo and nerf_tuned, one scene and seed) on the same "
+         "validation views: Hi-NeRF's trained field with its own sampler (as scored), with "
+         "twice its samples, with nerf_tuned's stratified sampler and with twice that; "
+         "nerf_tuned as scored and with twice its samples. It also measures the ray field's "
+         "window against each field's surface (the depth of the largest weight, on the rays "
+         "both see as opaque), L_empty's share of Hi's loss, and the opacity on background "
+         "pixels. Mean over the probed seeds (in brackets).", "",
+         "| budget | scene | Hi as scored | Hi, 2× its samples | Hi, nerf_tuned's sampler | "
+         "Hi, 2× that | nerf_tuned | nerf_tuned, 2× |", "|---|---|---|---|---|---|---|---|"]
+  for (b, scene), ps in sorted(by_key.items()):
+    out.append(f"| {b:g} s | {scene} ({len(ps)}) | " + " | ".join(
+        "-" if _mean(ps, "psnr", c) is None else f"{_mean(ps, 'psnr', c):.2f}" for c in cols)
+        + " |")
+  out.append("")
+  for (b, scene), ps in sorted(by_key.items()):
+    out += [f"- **{scene} at {b:g} s.** " + " ".join(probe_sentences(ps))]
+  return out + [""]
+
+
+def write(all_suites, docs, results="") -> str:
+  """Writes the page and its figures (with the probes under `results`, when
+  given); returns the README sentence."""
   by_budget = study(all_suites)
   budgets = sorted(by_budget)
   head = "| method | " + " | ".join(f"{b:g} s" for b in budgets) + " |"
@@ -233,6 +315,8 @@ def write(all_suites, docs) -> str:
     out += [f"## {s}", "", head, "|---|" + "---|" * len(budgets), *rows, "",
             *(f"- {overfitting_sentence(m, overfitting(top[m]))}" for m in (BASELINE, METHOD)
               if m in top), "", f"![{s}]({png})", ""]
+  if results:
+    out += probe_section(probes(results))
   with open(os.path.join(docs, f"{PAGE}.md"), "w") as f:
     f.write("\n".join(out))
   return readme_sentence(by_budget)

@@ -332,7 +332,7 @@ def main(argv):
   for (suite, mode), scenes in sorted(suites.items()):
     name = write_suite(suite, mode, scenes, FLAGS.docs, versions[(suite, mode)])
     print("wrote", os.path.join(FLAGS.docs, name + ".md"))
-  budget_line = budget_report.write(suites, FLAGS.docs)
+  budget_line = budget_report.write(suites, FLAGS.docs, FLAGS.results)
   print("wrote", os.path.join(FLAGS.docs, budget_report.PAGE + ".md"))
   if FLAGS.readme and update_readme(FLAGS.readme, readme_block(suites, FLAGS.docs, versions,
                                                                 budget_line)):

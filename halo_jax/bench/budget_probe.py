@@ -1,0 +1,233 @@
+"""What sets HALO's margin at a budget, measured on a finished HALO run and
+the nerf_tuned run of the same scene, seed and suite (issue 60):
+
+- Hi-NeRF's samples. Its trained field is rendered three ways on the same
+  held-out views: as it trained (its own sampler, e.g. the ray field's
+  window), with nerf_tuned's sampler over the whole [near, far], and with
+  twice those samples. A gain over its own sampler means the sample
+  placement, not the field, caps Hi.
+- The ray field's depth. On the rays that both Hi's field and nerf_tuned
+  see as opaque: how far it lies from each one's surface (the depth of the
+  largest weight, densely sampled), the share of those rays whose surface
+  falls inside the guided window, and the share of Hi's squared error that
+  lies on the opaque rays whose window misses Hi's own surface.
+- L_empty. Its weighted share of Hi's loss over the first and last quarter
+  of the stage (the run's metrics.jsonl), and, on a white-background scene,
+  the opacity each method puts on the pixels the ground truth shows as
+  background (floaters).
+
+Hi − Lo is in the run's record already. Each probe is a file
+results/<suite>/probe/<scene>/seed<k>.json that the budget study's page
+reads; it needs the runs' workdirs (their --scratch), so it runs on the
+machine that trained them:
+
+  python -m halo_jax.bench.budget_probe --suite=budget_960 --scratch=/tmp/bud_s0
+"""
+import copy
+import json
+import os
+import sys
+
+from absl import flags, logging
+import jax
+import numpy as np
+
+from halo_jax import evaluate, metrics, provenance, raycast, restore, samplers
+from halo_jax.bench import run_file, selection, suites, tool
+from halo_jax.bench.paths import REPO, result_path, workdir_of
+from halo_jax.bench.report_common import BASELINE
+from halo_jax.geometry import Geometry
+from halo_jax.stages import base, radiance
+
+METHOD = "halo"
+OPAQUE = 0.5          # acc above which a ray counts as hitting a surface
+WHITE = 0.99          # a ground-truth pixel whose every channel is above this is background
+QUARTER = 0.25        # the share of Hi's logged steps at each end for L_empty's share
+
+
+def probe_path(results, suite_name, scene, seed):
+  return os.path.join(results, suite_name, "probe", scene, f"seed{seed}.json")
+
+
+def _render(render_fn, views, chunk):
+  return {k: np.asarray(v) for k, v in evaluate.render_views(render_fn, views, chunk).items()}
+
+
+def _psnr_mean(rgb, gt) -> float:
+  """Mean over views of per-view PSNR, as the records score it."""
+  return float(np.mean(metrics.psnr(np.clip(rgb, 0.0, 1.0), gt)))
+
+
+def with_sampler(config, name, **fields):
+  """A copy of `config` whose stage `name` renders with these sampler fields."""
+  out = copy.deepcopy(config)
+  out[name].sampler.update(fields)
+  return out
+
+
+def guide_depth(config, dataset, states, views, chunk):
+  """(the ray field's depth [V, H, W], the guided sampler's config) of Hi's
+  guide, or None where Hi has no 3D guide (unguided or a light field)."""
+  g = radiance.guide(config, "hi", dataset, states)
+  if g is None or g[0].geometry not in (Geometry.SPHERE, Geometry.NDC):
+    return None
+  guide, sampler_cfg = g
+  depth_of = jax.jit(lambda o, d: raycast.ray_field_depth(guide, o, d)[0])
+  o, d = views.rays()
+  flat_o, flat_d = o.reshape(-1, 3), d.reshape(-1, 3)
+  parts = [np.asarray(depth_of(flat_o[i:i + chunk], flat_d[i:i + chunk]))
+           for i in range(0, flat_o.shape[0], chunk)]
+  return np.concatenate(parts).reshape(o.shape[:-1]), sampler_cfg
+
+
+def window_facts(depth, sampler_cfg, near, far, own, other, opaque, sq_err) -> dict:
+  """The guided window against the surfaces (depth_max) of Hi's densely
+  rendered field (`own`) and of nerf_tuned (`other`) on `opaque` rays;
+  depth, own, other, opaque [V, H, W]; sq_err [V, H, W] Hi's squared error
+  as trained. Distances are in shares of far − near."""
+  lo, hi = (np.asarray(x) for x in samplers.depth_window(depth, near, far, sampler_cfg.window,
+                                                          sampler_cfg.near_only))
+  span = far - near
+  inside = lambda s: (s >= lo) & (s <= hi)
+  miss = opaque & ~inside(own)
+  return {
+      "window": float(sampler_cfg.window), "num_samples": int(sampler_cfg.num_samples),
+      "mean_window_share": float(np.mean(hi - lo) / span),
+      "opaque_share": float(np.mean(opaque)),
+      "median_to_hi_surface": float(np.median(np.abs(depth - own)[opaque]) / span),
+      "median_to_baseline_surface": float(np.median(np.abs(depth - other)[opaque]) / span),
+      "median_hi_to_baseline_surface": float(np.median(np.abs(own - other)[opaque]) / span),
+      "hi_surface_in_window": float(np.mean(inside(own)[opaque])),
+      "baseline_surface_in_window": float(np.mean(inside(other)[opaque])),
+      "error_share_where_window_misses": float(sq_err[miss].sum() / max(sq_err.sum(), 1e-12)),
+      "ray_share_where_window_misses": float(np.mean(miss)),
+  }
+
+
+def empty_share(workdir, weight):
+  """{'first', 'last'}: L_empty's weighted value over Hi's loss, mean over
+  the first and last QUARTER of Hi's logged steps; None without the term."""
+  path = os.path.join(workdir, "metrics.jsonl")
+  if weight <= 0 or not os.path.exists(path):
+    return None
+  with open(path) as f:
+    rows = [json.loads(line) for line in f]
+  rows = [r for r in rows if r.get("stage") == "hi" and "empty" in r and r.get("loss")]
+  if not rows:
+    return None
+  share = np.array([weight * r["empty"] / r["loss"] for r in rows])
+  k = max(1, int(len(share) * QUARTER))
+  return {"first": float(np.mean(share[:k])), "last": float(np.mean(share[-k:]))}
+
+
+def _check_workdir(run, record, path):
+  """A workdir that is not the record's run (another step count) is refused."""
+  want = record["stages"]["hi"]["step"]
+  if int(run.states["hi"].step) != want:
+    raise ValueError(f"{run.workdir}: Hi-NeRF stopped at step {int(run.states['hi'].step)}, "
+                     f"but {path} records {want}; it is not that run's workdir")
+
+
+def probe(halo_dir, baseline_dir, halo_record, baseline_record, paths) -> dict:
+  """The probe's figures for one scene and seed (see the module docstring)."""
+  halo, other = restore.load(halo_dir, "hi"), restore.load(baseline_dir, "hi")
+  _check_workdir(halo, halo_record, paths[0])
+  _check_workdir(other, baseline_record, paths[1])
+  ds, views, chunk = halo.dataset, halo.dataset.test, halo.config.eval.chunk
+  near, far = float(ds.near), float(ds.far)
+  gt = np.asarray(views.images)
+  n_own = int(halo.config.hi.sampler.num_samples)
+  n_theirs = int(other.config.hi.sampler.num_samples)
+  variants = {  # (run, sampler fields or None for the run's own)
+      "own": (halo, None), "own_twice_samples": (halo, dict(num_samples=2 * n_own)),
+      "baseline_sampler": (halo, dict(kind="stratified", num_samples=n_theirs)),
+      "twice_baseline_samples": (halo, dict(kind="stratified", num_samples=2 * n_theirs)),
+      BASELINE: (other, None),
+      f"{BASELINE}_twice_samples": (other, dict(kind="stratified", num_samples=2 * n_theirs))}
+  renders = {}
+  for key, (run, fields) in variants.items():
+    fn = run.render if fields is None else base.renderer_of(
+        with_sampler(run.config, "hi", **fields), "hi", ds, run.states)
+    renders[key] = _render(fn, views, chunk)
+  own, baseline = renders["own"], renders[BASELINE]
+  out = {"scene_views": list(views.names), "near": near, "far": far,
+         "samplers": {k: dict(f or {}) for k, (_, f) in variants.items()},  # {}: as trained
+         "hi_sampler": {"kind": halo.config.hi.sampler.kind, "num_samples": n_own},
+         "psnr": {k: _psnr_mean(r["rgb"], gt) for k, r in renders.items()},
+         "record_psnr": {METHOD: halo_record["psnr"], BASELINE: baseline_record["psnr"]}}
+  dense = renders["twice_baseline_samples"]
+  opaque = (dense["acc"] > OPAQUE) & (baseline["acc"] > OPAQUE)
+  g = guide_depth(halo.config, ds, halo.states, views, chunk)
+  if g is not None:
+    sq_err = np.sum((np.clip(own["rgb"], 0, 1) - gt) ** 2, -1)
+    out["guide"] = window_facts(g[0], g[1], near, far, dense["depth_max"],
+                                baseline["depth_max"], opaque, sq_err)
+  out["empty_share"] = empty_share(halo_dir, float(halo.config.hi.empty.weight))
+  if ds.white_background:
+    background = np.all(gt > WHITE, -1)
+    out["background_acc"] = {METHOD: float(np.mean(own["acc"][background])),
+                             BASELINE: float(np.mean(baseline["acc"][background])),
+                             "pixel_share": float(np.mean(background))}
+  return out
+
+
+def probe_run(suite_name, mode, scene, seed, results, scratch):
+  """Probes `scene`/seed`seed` of a suite and writes its file; None (nothing
+  written) unless both methods' records and finished workdirs are there."""
+  paths = [result_path(results, suite_name, mode, scene, m, seed) for m in (METHOD, BASELINE)]
+  dirs = [workdir_of(scratch, suite_name, mode, scene, m, seed) for m in (METHOD, BASELINE)]
+  if not all(os.path.exists(p) for p in paths) or not all(restore.finished(d, "hi")
+                                                          for d in dirs):
+    return None
+  records = [run_file.read(p) for p in paths]
+  out = probe(*dirs, *records, paths)
+  out.update(scene=scene.name, seed=seed, suite=suite_name,
+             runs={m: {"code_tree": r["provenance"]["git"].get("code_tree"),
+                       "commit": r["provenance"]["git"]["commit"]}
+                   for m, r in zip((METHOD, BASELINE), records)},
+             provenance=provenance.collect(measure_peak=False))
+  run_file.write_json(probe_path(results, suite_name, scene.name, seed), out)
+  return out
+
+
+FLAGS = flags.FLAGS
+
+
+def define_flags():
+  flags.DEFINE_enum("suite", "budget_960", sorted(suites.SUITES), "The suite whose runs to probe.")
+  flags.DEFINE_string("mode", "budget", "The suite's mode.")
+  flags.DEFINE_string("results", os.path.join(REPO, "results"),
+                      "Where the runs' records are and the probes go.")
+  flags.DEFINE_string("scratch", "/tmp/halo_bench", "The runs' workdirs (benchmark --scratch).")
+  flags.DEFINE_string("only", "", "Probe only 'scene/seed<k>' matching this regex.")
+
+
+def main(argv):
+  del argv
+  logging.set_verbosity(logging.WARNING)
+  suite = suites.SUITES[FLAGS.suite]
+  pairs = [(s, k) for k in range(max(s.seeds for s in suite.scenes)) for s in suite.scenes
+           if k < s.seeds]
+  try:
+    pairs = selection.select(pairs, lambda p: f"{p[0].name}/seed{p[1]}", FLAGS.only, "scene",
+                             "suite")
+  except ValueError as e:
+    sys.exit(str(e))
+  for scene, seed in pairs:
+    out = probe_run(FLAGS.suite, FLAGS.mode, scene, seed, FLAGS.results, FLAGS.scratch)
+    tag = f"{scene.name}/seed{seed}"
+    if out is None:
+      print(f"skipped  {tag}: needs both records and both workdirs in --scratch", flush=True)
+    else:
+      print(f"probed   {tag}: " + ", ".join(f"{k} {v:.2f}" for k, v in out["psnr"].items()),
+            flush=True)
+
+
+def cli():
+  """The console script's entry point."""
+  define_flags()
+  tool.run(sys.modules[__name__], main)
+
+
+if __name__ == "__main__":
+  cli()

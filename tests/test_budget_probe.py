@@ -1,0 +1,74 @@
+"""The budget study's probe (halo_jax/bench/budget_probe.py): its window
+figures against a hand count, L_empty's share against its arithmetic, and,
+end to end on the smoke suite, its re-renders against the runs' own scores."""
+import json
+import os
+
+import ml_collections
+import numpy as np
+import pytest
+
+from halo_jax.bench import budget_probe
+
+
+def test_window_facts_count_what_the_window_holds():
+  # near 2, far 6, window 0.25: half a window is 1; the third ray's window is
+  # clipped at far to [4.5, 6]
+  cfg = ml_collections.ConfigDict(dict(window=0.25, num_samples=8, near_only=False))
+  depth = np.array([3.0, 3.0, 5.5, 4.0])
+  own = np.array([3.5, 4.5, 6.0, 4.0])        # the second misses its window [2, 4]
+  other = np.array([2.1, 3.0, 4.0, 4.0])      # the third misses [4.5, 6]
+  opaque = np.array([True, True, True, False])
+  sq_err = np.array([1.0, 2.0, 3.0, 4.0])
+  f = budget_probe.window_facts(depth, cfg, 2.0, 6.0, own, other, opaque, sq_err)
+  assert f["mean_window_share"] == pytest.approx((2 + 2 + 1.5 + 2) / 4 / 4)
+  assert f["opaque_share"] == pytest.approx(0.75)
+  assert f["hi_surface_in_window"] == pytest.approx(2 / 3)
+  assert f["baseline_surface_in_window"] == pytest.approx(2 / 3)
+  assert f["median_to_hi_surface"] == pytest.approx(0.5 / 4)
+  assert f["median_to_baseline_surface"] == pytest.approx(0.9 / 4)
+  assert f["error_share_where_window_misses"] == pytest.approx(2 / 10)
+  assert f["ray_share_where_window_misses"] == pytest.approx(1 / 4)
+
+
+def test_empty_share_is_the_weighted_term_over_the_loss(tmp_path):
+  rows = [{"stage": "lo", "step": 1, "loss": 1.0}]
+  rows += [{"stage": "hi", "step": i, "loss": 0.01, "empty": 1e-3 * i} for i in range(1, 9)]
+  rows.append({"stage": "hi", "step": 8, "heldout": True, "psnr": 20.0})
+  with open(tmp_path / "metrics.jsonl", "w") as f:
+    f.write("\n".join(json.dumps(r) for r in rows))
+  share = budget_probe.empty_share(str(tmp_path), 0.1)
+  # the first and last quarter of the 8 logged Hi rows: 2 rows each
+  assert share["first"] == pytest.approx(0.1 * np.mean([1e-3, 2e-3]) / 0.01)
+  assert share["last"] == pytest.approx(0.1 * np.mean([7e-3, 8e-3]) / 0.01)
+  assert budget_probe.empty_share(str(tmp_path), 0.0) is None
+
+
+@pytest.mark.slow
+def test_probe_renders_the_runs_as_they_scored_themselves(tmp_path):
+  from halo_jax.bench import benchmark, suites
+  results, scratch = str(tmp_path / "results"), str(tmp_path / "scratch")
+  scene = suites.SMOKE.scenes[0]
+  assert budget_probe.probe_run("smoke", "budget", scene, 0, results, scratch) is None
+  for method in ("halo", "nerf_tuned"):
+    benchmark.run_one("smoke", suites.SMOKE, scene, method, 0, "budget", results, scratch)
+  out = budget_probe.probe_run("smoke", "budget", scene, 0, results, scratch)
+  with open(budget_probe.probe_path(results, "smoke", scene.name, 0)) as f:
+    assert json.load(f)["psnr"] == out["psnr"]
+  # the probe's renders as trained are the runs' own final evaluations
+  for key, method in (("own", "halo"), ("nerf_tuned", "nerf_tuned")):
+    assert out["psnr"][key] == pytest.approx(out["record_psnr"][method], abs=1e-3)
+  assert out["hi_sampler"] == {"kind": "depth_guided", "num_samples": 8}
+  g = out["guide"]
+  assert 0 < g["mean_window_share"] <= 1 and 0 <= g["hi_surface_in_window"] <= 1
+  assert 0 < out["background_acc"]["pixel_share"] < 1
+  # a workdir that is not the record's run is refused
+  path = benchmark.result_path(results, "smoke", "budget", scene, "halo", 0)
+  with open(path) as f:
+    record = json.load(f)
+  record["stages"]["hi"]["step"] += 1
+  with open(path, "w") as f:
+    json.dump(record, f)
+  with pytest.raises(ValueError, match="not that run's workdir"):
+    budget_probe.probe_run("smoke", "budget", scene, 0, results, scratch)
+  assert os.path.exists(budget_probe.probe_path(results, "smoke", scene.name, 0))
