@@ -72,3 +72,22 @@ def test_probe_renders_the_runs_as_they_scored_themselves(tmp_path):
   with pytest.raises(ValueError, match="not that run's workdir"):
     budget_probe.probe_run("smoke", "budget", scene, 0, results, scratch)
   assert os.path.exists(budget_probe.probe_path(results, "smoke", scene.name, 0))
+
+
+def test_probe_rays_take_a_regular_grid_within_the_ray_budget():
+  class FakeViews:  # 3 views of 10 x 8 pixels
+    images = np.arange(3 * 10 * 8 * 3, dtype=np.float32).reshape(3, 10, 8, 3)
+
+    def rays(self):
+      return self.images, self.images + 1
+
+    def ray_times(self):
+      return None
+
+  o, d, t, gt, stride = budget_probe.probe_rays(FakeViews(), max_rays=240)
+  assert stride == 1 and o.shape == (3, 10, 8, 3) and t is None
+  o, d, t, gt, stride = budget_probe.probe_rays(FakeViews(), max_rays=60)
+  assert stride == 2 and gt.shape == (3, 5, 4, 3)       # 60 rays
+  np.testing.assert_array_equal(gt, FakeViews.images[:, ::2, ::2])
+  np.testing.assert_array_equal(d, gt + 1)
+  assert budget_probe.probe_rays(FakeViews(), max_rays=59)[4] == 3

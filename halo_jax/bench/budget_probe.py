@@ -1,11 +1,13 @@
 """What sets HALO's margin at a budget, measured on a finished HALO run and
 the nerf_tuned run of the same scene, seed and suite (issue 60):
 
-- Hi-NeRF's samples. Its trained field is rendered three ways on the same
-  held-out views: as it trained (its own sampler, e.g. the ray field's
-  window), with nerf_tuned's sampler over the whole [near, far], and with
-  twice those samples. A gain over its own sampler means the sample
-  placement, not the field, caps Hi.
+- Hi-NeRF's samples. On the same held-out views (a regular pixel grid of
+  them, MAX_RAYS at most), Hi's trained field is rendered with its own
+  sampler (as it was scored), with twice its samples, with nerf_tuned's
+  sampler over the whole [near, far] and with twice that; nerf_tuned as
+  scored and with twice its samples. What twice the samples adds to each
+  says how much its sampler, not its field, caps it; the two fields at
+  equal dense sampling compare the fields themselves.
 - The ray field's depth. On the rays that both Hi's field and nerf_tuned
   see as opaque: how far it lies from each one's surface (the depth of the
   largest weight, densely sampled), the share of those rays whose surface
@@ -25,6 +27,7 @@ machine that trained them:
 """
 import copy
 import json
+import math
 import os
 import sys
 
@@ -32,7 +35,7 @@ from absl import flags, logging
 import jax
 import numpy as np
 
-from halo_jax import evaluate, metrics, provenance, raycast, restore, samplers
+from halo_jax import metrics, provenance, raycast, restore, samplers
 from halo_jax.bench import run_file, selection, suites, tool
 from halo_jax.bench.paths import REPO, result_path, workdir_of
 from halo_jax.bench.report_common import BASELINE
@@ -42,6 +45,7 @@ from halo_jax.stages import base, radiance
 METHOD = "halo"
 OPAQUE = 0.5          # acc above which a ray counts as hitting a surface
 WHITE = 0.99          # a ground-truth pixel whose every channel is above this is background
+MAX_RAYS = 131072     # rays a probe renders per sampler: a pixel grid over every view
 QUARTER = 0.25        # the share of Hi's logged steps at each end for L_empty's share
 
 
@@ -49,8 +53,22 @@ def probe_path(results, suite_name, scene, seed):
   return os.path.join(results, suite_name, "probe", scene, f"seed{seed}.json")
 
 
-def _render(render_fn, views, chunk):
-  return {k: np.asarray(v) for k, v in evaluate.render_views(render_fn, views, chunk).items()}
+def probe_rays(views, max_rays=MAX_RAYS):
+  """(origins, dirs [V, h, w, 3], times [V, h, w, 1] or None, ground truth
+  [V, h, w, 3], stride): every view's pixels on a regular grid of this
+  stride, the smallest that keeps them within max_rays."""
+  o, d = views.rays()
+  t = views.ray_times()
+  v, h, w = o.shape[:3]
+  stride = max(1, math.ceil(math.sqrt(v * h * w / max_rays)))
+  grid = (slice(None), slice(None, None, stride), slice(None, None, stride))
+  return (o[grid], d[grid], None if t is None else t[grid], np.asarray(views.images)[grid],
+          stride)
+
+
+def _render(render_fn, rays, chunk):
+  o, d, t = rays[:3]
+  return {k: np.asarray(v) for k, v in raycast.render_chunked(render_fn, o, d, chunk, t).items()}
 
 
 def _psnr_mean(rgb, gt) -> float:
@@ -65,7 +83,7 @@ def with_sampler(config, name, **fields):
   return out
 
 
-def guide_depth(config, dataset, states, views, chunk):
+def guide_depth(config, dataset, states, o, d, chunk):
   """(the ray field's depth [V, H, W], the guided sampler's config) of Hi's
   guide, or None where Hi has no 3D guide (unguided or a light field)."""
   g = radiance.guide(config, "hi", dataset, states)
@@ -73,7 +91,6 @@ def guide_depth(config, dataset, states, views, chunk):
     return None
   guide, sampler_cfg = g
   depth_of = jax.jit(lambda o, d: raycast.ray_field_depth(guide, o, d)[0])
-  o, d = views.rays()
   flat_o, flat_d = o.reshape(-1, 3), d.reshape(-1, 3)
   parts = [np.asarray(depth_of(flat_o[i:i + chunk], flat_d[i:i + chunk]))
            for i in range(0, flat_o.shape[0], chunk)]
@@ -135,7 +152,8 @@ def probe(halo_dir, baseline_dir, halo_record, baseline_record, paths) -> dict:
   _check_workdir(other, baseline_record, paths[1])
   ds, views, chunk = halo.dataset, halo.dataset.test, halo.config.eval.chunk
   near, far = float(ds.near), float(ds.far)
-  gt = np.asarray(views.images)
+  rays = probe_rays(views)
+  gt = rays[3]
   n_own = int(halo.config.hi.sampler.num_samples)
   n_theirs = int(other.config.hi.sampler.num_samples)
   variants = {  # (run, sampler fields or None for the run's own)
@@ -148,16 +166,16 @@ def probe(halo_dir, baseline_dir, halo_record, baseline_record, paths) -> dict:
   for key, (run, fields) in variants.items():
     fn = run.render if fields is None else base.renderer_of(
         with_sampler(run.config, "hi", **fields), "hi", ds, run.states)
-    renders[key] = _render(fn, views, chunk)
+    renders[key] = _render(fn, rays, chunk)
   own, baseline = renders["own"], renders[BASELINE]
-  out = {"scene_views": list(views.names), "near": near, "far": far,
+  out = {"scene_views": list(views.names), "pixel_stride": rays[4], "near": near, "far": far,
          "samplers": {k: dict(f or {}) for k, (_, f) in variants.items()},  # {}: as trained
          "hi_sampler": {"kind": halo.config.hi.sampler.kind, "num_samples": n_own},
          "psnr": {k: _psnr_mean(r["rgb"], gt) for k, r in renders.items()},
          "record_psnr": {METHOD: halo_record["psnr"], BASELINE: baseline_record["psnr"]}}
   dense = renders["twice_baseline_samples"]
   opaque = (dense["acc"] > OPAQUE) & (baseline["acc"] > OPAQUE)
-  g = guide_depth(halo.config, ds, halo.states, views, chunk)
+  g = guide_depth(halo.config, ds, halo.states, rays[0], rays[1], chunk)
   if g is not None:
     sq_err = np.sum((np.clip(own["rgb"], 0, 1) - gt) ** 2, -1)
     out["guide"] = window_facts(g[0], g[1], near, far, dense["depth_max"],
