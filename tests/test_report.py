@@ -356,6 +356,9 @@ def test_budget_study_says_what_its_probes_measured(tmp_path, monkeypatch):
   assert "| 960 s | lego_8view (2) | 22.10 | 22.60 | 22.30 | 22.70 | 22.20 | 22.40 |" in page
   assert "Hi +0.50 dB with its own sampler, nerf_tuned +0.20 dB" in page
   assert "Hi's field is +0.30 dB from nerf_tuned's" in page
+  assert ("Reading: at equal dense sampling Hi's field is ahead of nerf_tuned's (+0.30 dB); "
+          "Hi's own sampler costs it 0.60 dB more (nerf_tuned's sampler at twice its samples "
+          "recovers it).") in page
   assert "spans 60% of [near, far] (32 samples) and holds Hi's surface on 99.0%" in page
   assert "L_empty is 0.20% of Hi's loss over its first quarter and 1.00% over its last" in page
   # no probes: no section

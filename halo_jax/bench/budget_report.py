@@ -206,6 +206,30 @@ def _mean(ps, *keys):
   return None if any(v is None for v in vals) else float(np.mean(vals))
 
 
+# Another sampler counts as capping Hi's field when it adds this much to it.
+SAMPLER_DB = 0.1
+OTHER_SAMPLERS = {"own_twice_samples": "twice its own samples",
+                  "baseline_sampler": f"{BASELINE}'s sampler",
+                  "twice_baseline_samples": f"{BASELINE}'s sampler at twice its samples"}
+
+
+def probe_reading(ps) -> str:
+  """The probes' verdict: whether Hi's field or its sampler sets the margin."""
+  own = _mean(ps, "psnr", "own")
+  gap = _mean(ps, "psnr", "twice_baseline_samples") - _mean(ps, "psnr",
+                                                            f"{BASELINE}_twice_samples")
+  best = max(OTHER_SAMPLERS, key=lambda k: _mean(ps, "psnr", k))
+  gain = _mean(ps, "psnr", best) - own
+  text = (f"at equal dense sampling Hi's field is {'ahead of' if gap >= 0 else 'behind'} "
+          f"{BASELINE}'s ({gap:+.2f} dB)")
+  if gain >= SAMPLER_DB:
+    text += (f"; Hi's own sampler costs it {gain:.2f} dB more ({OTHER_SAMPLERS[best]} "
+             "recovers it)")
+  elif gap < 0:
+    text += ": the margin is lost in training, not in the sampler"
+  return f"Reading: {text}."
+
+
 def probe_sentences(ps) -> list:
   """What the probes of one scene and budget measured, in words."""
   own, own2 = _mean(ps, "psnr", "own"), _mean(ps, "psnr", "own_twice_samples")
@@ -254,13 +278,15 @@ def probe_section(by_key) -> list:
          "pixels. Mean over the probed seeds (in brackets).", "",
          "| budget | scene | Hi as scored | Hi, 2× its samples | Hi, nerf_tuned's sampler | "
          "Hi, 2× that | nerf_tuned | nerf_tuned, 2× |", "|---|---|---|---|---|---|---|---|"]
-  for (b, scene), ps in sorted(by_key.items()):
+  in_order = sorted(by_key.items(), key=lambda kv: (suites.BUDGET_SCENES.index(kv[0][1]),
+                                                    kv[0][0]))
+  for (b, scene), ps in in_order:
     out.append(f"| {b:g} s | {scene} ({len(ps)}) | " + " | ".join(
         "-" if _mean(ps, "psnr", c) is None else f"{_mean(ps, 'psnr', c):.2f}" for c in cols)
         + " |")
   out.append("")
-  for (b, scene), ps in sorted(by_key.items()):
-    out += [f"- **{scene} at {b:g} s.** " + " ".join(probe_sentences(ps))]
+  for (b, scene), ps in in_order:
+    out += [f"- **{scene} at {b:g} s.** {probe_reading(ps)} " + " ".join(probe_sentences(ps))]
   return out + [""]
 
 
