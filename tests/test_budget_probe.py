@@ -61,7 +61,8 @@ def test_probe_renders_the_runs_as_they_scored_themselves(tmp_path):
   assert out["hi_sampler"] == {"kind": "depth_guided", "num_samples": 8}
   g = out["guide"]
   assert 0 < g["mean_window_share"] <= 1 and 0 <= g["hi_surface_in_window"] <= 1
-  assert 0 < out["background_acc"]["pixel_share"] < 1
+  bg = out["background_acc"]
+  assert 0 < bg["pixel_share"] < 1 and 0 <= bg["lo"] <= 1 and 0 <= bg["lo_sees_empty"] <= 1
   # a workdir that is not the record's run is refused
   path = benchmark.result_path(results, "smoke", "budget", scene, "halo", 0)
   with open(path) as f:

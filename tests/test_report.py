@@ -345,7 +345,8 @@ def test_budget_study_says_what_its_probes_measured(tmp_path, monkeypatch):
   for seed, shift in ((0, 0.0), (1, 0.2)):
     probe = {"psnr": {k: v + shift for k, v in psnr.items()}, "guide": guide,
              "empty_share": {"first": 0.002, "last": 0.01},
-             "background_acc": {"halo": 0.005, "nerf_tuned": 0.008}}
+             "background_acc": {"halo": 0.005, "nerf_tuned": 0.008, "lo": 0.02,
+                                "lo_sees_empty": 0.9}}
     (folder / f"seed{seed}.json").write_text(json.dumps(probe))
   lego = {"nerf_tuned": [_budget_record(20.0, "configs/blender.py:lego_8view_cpu")],
           "halo": [_budget_record(20.5, "configs/blender.py:lego_8view_cpu")]}
@@ -361,6 +362,8 @@ def test_budget_study_says_what_its_probes_measured(tmp_path, monkeypatch):
           "recovers it).") in page
   assert "spans 60% of [near, far] (32 samples) and holds Hi's surface on 99.0%" in page
   assert "L_empty is 0.20% of Hi's loss over its first quarter and 1.00% over its last" in page
+  assert ("halo 0.0050, nerf_tuned 0.0080, halo's Lo-NeRF 0.0200, which sees 90% of them "
+          "empty") in page
   # no probes: no section
   budget_report.write(suites, str(tmp_path), str(tmp_path / "none"))
   assert "What sets the margin" not in (tmp_path / "budget_study.md").read_text()

@@ -15,8 +15,9 @@ the nerf_tuned run of the same scene, seed and suite (issue 60):
   lies on the opaque rays whose window misses Hi's own surface.
 - L_empty. Its weighted share of Hi's loss over the first and last quarter
   of the stage (the run's metrics.jsonl), and, on a white-background scene,
-  the opacity each method puts on the pixels the ground truth shows as
-  background (floaters).
+  the opacity Hi, nerf_tuned and Lo-NeRF put on the pixels the ground truth
+  shows as background (floaters), with the share of them Lo sees empty
+  (where L_empty can act).
 
 Hi − Lo is in the run's record already. Each probe is a file
 results/<suite>/probe/<scene>/seed<k>.json that the budget study's page
@@ -137,6 +138,20 @@ def empty_share(workdir, weight):
   return {"first": float(np.mean(share[:k])), "last": float(np.mean(share[-k:]))}
 
 
+def background_facts(halo_dir, gt, hi_acc, baseline_acc, rays, chunk, tau) -> dict:
+  """Opacity on the pixels the ground truth shows as white background: Hi's,
+  nerf_tuned's and, where HALO has one, Lo-NeRF's, with the share of those
+  pixels Lo sees empty (opacity under L_empty's tau: where L_empty can act)."""
+  background = np.all(gt > WHITE, -1)
+  out = {METHOD: float(np.mean(hi_acc[background])),
+         BASELINE: float(np.mean(baseline_acc[background])),
+         "pixel_share": float(np.mean(background))}
+  if restore.finished(halo_dir, "lo"):
+    lo_acc = _render(restore.load(halo_dir, "lo").render, rays, chunk)["acc"][background]
+    out.update(lo=float(np.mean(lo_acc)), lo_sees_empty=float(np.mean(lo_acc < tau)))
+  return out
+
+
 def _check_workdir(run, record, path):
   """A workdir that is not the record's run (another step count) is refused."""
   want = record["stages"]["hi"]["step"]
@@ -182,10 +197,8 @@ def probe(halo_dir, baseline_dir, halo_record, baseline_record, paths) -> dict:
                                 baseline["depth_max"], opaque, sq_err)
   out["empty_share"] = empty_share(halo_dir, float(halo.config.hi.empty.weight))
   if ds.white_background:
-    background = np.all(gt > WHITE, -1)
-    out["background_acc"] = {METHOD: float(np.mean(own["acc"][background])),
-                             BASELINE: float(np.mean(baseline["acc"][background])),
-                             "pixel_share": float(np.mean(background))}
+    out["background_acc"] = background_facts(halo_dir, gt, own["acc"], baseline["acc"], rays,
+                                             chunk, float(halo.config.hi.empty.tau))
   return out
 
 

@@ -254,9 +254,13 @@ def probe_sentences(ps) -> list:
                  f"its first quarter and {100 * _mean(ps, 'empty_share', 'last'):.2f}% over "
                  "its last.")
   if _mean(ps, "background_acc", METHOD) is not None:
+    lo = _mean(ps, "background_acc", "lo")
     lines.append(f"Opacity on the background pixels: halo "
                  f"{_mean(ps, 'background_acc', METHOD):.4f}, {BASELINE} "
-                 f"{_mean(ps, 'background_acc', BASELINE):.4f}.")
+                 f"{_mean(ps, 'background_acc', BASELINE):.4f}" + (
+                     "" if lo is None else f", halo's Lo-NeRF {lo:.4f}, which sees "
+                     f"{100 * _mean(ps, 'background_acc', 'lo_sees_empty'):.0f}% of them "
+                     "empty (where L_empty can act)") + ".")
   return lines
 
 
