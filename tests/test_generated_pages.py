@@ -9,8 +9,8 @@ import subprocess
 import pytest
 
 from experiments import faults
-from halo_jax.bench import (ablations, calibrate_frequency, code_version, gpu_report, method_table,
-                            report, throughput_report)
+from halo_jax.bench import (ablations, budget_report, calibrate_frequency, code_version,
+                            gpu_report, method_table, report, throughput_report)
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 RESULTS = os.path.join(REPO, "results")
@@ -55,9 +55,13 @@ def test_suite_pages_and_the_readme_block(tmp_path):
                               plots=False)  # the page's text does not depend on its figures
     _same(os.path.join(DOCS, f"{name}.md"), _read(tmp_path / f"{name}.md"),
           "python experiments/report.py")
+  budget_line = budget_report.write(suites, str(tmp_path), RESULTS)
+  _same(os.path.join(DOCS, f"{budget_report.PAGE}.md"),
+        _read(tmp_path / f"{budget_report.PAGE}.md"), "python experiments/report.py")
   readme = tmp_path / "README.md"
   readme.write_text(_read(os.path.join(REPO, "README.md")))
-  assert report.update_readme(str(readme), report.readme_block(suites, str(tmp_path), versions))
+  assert report.update_readme(str(readme), report.readme_block(suites, str(tmp_path), versions,
+                                                               budget_line))
   _same(os.path.join(REPO, "README.md"), readme.read_text(), "python experiments/report.py")
 
 

@@ -329,7 +329,7 @@ def test_budget_study_reads_the_lead_and_where_the_baseline_stops_improving(tmp_
   assert "moves -0.50 dB by 360 s, while its training PSNR moves +2.00 dB" in page
   assert (tmp_path / "budget_study_lego_8view.png").exists()
   assert "+1.00 dB at 60, +0.50 dB at 240, -0.10 dB at 960 reference seconds" in line
-  assert "HALO trails on lego_8view" in line
+  assert line.endswith("HALO leads at 60 s and 240 s only on lego_8view (+1.00 to -0.10 dB).")
 
 
 def test_budget_study_says_what_its_probes_measured(tmp_path, monkeypatch):
@@ -364,6 +364,28 @@ def test_budget_study_says_what_its_probes_measured(tmp_path, monkeypatch):
   assert "L_empty is 0.20% of Hi's loss over its first quarter and 1.00% over its last" in page
   assert ("halo 0.0050, nerf_tuned 0.0080, halo's Lo-NeRF 0.0200, which sees 90% of them "
           "empty") in page
+  assert "HALO trails" not in page
+  # at 960 s HALO trails: the section opens with the scene and its probes' reading
+  behind = _budget_record(19.0, "configs/blender.py:lego_8view_cpu")
+  behind["stages"] = {"lo": {"psnr": 19.5}}
+  suites[("budget_960", "budget")] = {"lego_8view": {**lego, "halo": [behind]}}
+  budget_report.write(suites, str(tmp_path), str(tmp_path / "results"))
+  page = (tmp_path / "budget_study.md").read_text()
+  assert ("- At 960 s HALO trails on lego_8view (-1.00 dB). Reading: at equal dense sampling Hi's "
+          "field is ahead of") in page
+  assert "recovers it); Hi loses 0.50 dB on halo's own Lo-NeRF." in page
   # no probes: no section
   budget_report.write(suites, str(tmp_path), str(tmp_path / "none"))
   assert "What sets the margin" not in (tmp_path / "budget_study.md").read_text()
+
+
+def test_the_readme_groups_the_scenes_by_the_budgets_halo_leads_at():
+  from halo_jax.bench import budget_report
+  rec = lambda p: [{"psnr": p}]  # noqa: E731
+  pair = lambda h, n: {"halo": rec(h), "nerf_tuned": rec(n)}  # noqa: E731
+  by_budget = {60.0: {"a": pair(21, 20), "b": pair(19, 20), "c": pair(18, 20), "d": pair(22, 20)},
+               960.0: {"a": pair(20.5, 20), "b": pair(21, 20), "c": pair(18, 20),
+                       "d": pair(23, 20)}}
+  assert budget_report.where_halo_leads(by_budget, ("a", "b", "c", "d")) == (
+      "at every budget on a (+1.00 to +0.50 dB), d (+2.00 to +3.00 dB); "
+      "at 960 s only on b (-1.00 to +1.00 dB); at no budget on c")

@@ -98,6 +98,19 @@ def overfitting_sentence(method, o) -> str:
           f"{o['end_s']:.0f} s{train}.")
 
 
+def lo_psnrs(by_method):
+  """halo's Lo-NeRF PSNR at the end of its stage, per run that scored it."""
+  return [r["stages"]["lo"]["psnr"] for r in by_method.get(METHOD, [])
+          if "psnr" in r.get("stages", {}).get("lo", {})]
+
+
+def hi_minus_lo(by_method):
+  """What Hi-NeRF adds to halo's Lo-NeRF, mean over runs (None without Lo)."""
+  lo = lo_psnrs(by_method)
+  return (float(np.mean([r["psnr"] for r in by_method[METHOD]]) - np.mean(lo)) if lo
+          else None)
+
+
 def scene_rows(by_budget, scene):
   rows = []
   for m in (BASELINE, METHOD):
@@ -106,13 +119,11 @@ def scene_rows(by_budget, scene):
       rs = by_budget[b].get(scene, {}).get(m, [])
       cells.append(f"{stat([r['psnr'] for r in rs])[0]} ({len(rs)})" if rs else "-")
     rows.append(f"| {m} | " + " | ".join(cells) + " |")
-  lo = {b: [r["stages"]["lo"]["psnr"] for r in by_budget[b].get(scene, {}).get(METHOD, [])
-            if "psnr" in r.get("stages", {}).get("lo", {})] for b in by_budget}
+  lo = {b: lo_psnrs(by_budget[b].get(scene, {})) for b in by_budget}
   if any(lo.values()):
     rows.append("| halo's Lo-NeRF | " + " | ".join(
         f"{stat(lo[b])[0]}" if lo[b] else "-" for b in sorted(by_budget)) + " |")
-    gain = {b: (np.mean([r["psnr"] for r in by_budget[b][scene][METHOD]]) - np.mean(lo[b])
-                if lo[b] else None) for b in by_budget}
+    gain = {b: hi_minus_lo(by_budget[b].get(scene, {})) for b in by_budget}
     rows.append("| Hi − Lo | " + " | ".join(
         "-" if gain[b] is None else f"{gain[b]:+.2f}" for b in sorted(by_budget)) + " |")
   leads = {b: lead(by_budget[b].get(scene, {})) for b in by_budget}
@@ -167,20 +178,35 @@ def mean_leads(by_budget):
           for b in by_budget}, scenes
 
 
+def where_halo_leads(by_budget, scenes) -> str:
+  """'at every budget on a (+x → +y dB), at 60 s on b, and at none on c':
+  the scenes grouped by the budgets at which HALO's mean leads."""
+  budgets = sorted(by_budget)
+  groups = {}
+  for s in scenes:
+    leads = [lead(by_budget[b][s]) for b in budgets]
+    ahead = tuple(b for b, x in zip(budgets, leads) if x > 0)
+    label = (f"{s} ({leads[0]:+.2f} to {leads[-1]:+.2f} dB)" if ahead else s)
+    groups.setdefault(ahead, []).append(label)
+  parts = []
+  for ahead, names in sorted(groups.items(), key=lambda kv: -len(kv[0])):
+    when = ("at every budget" if len(ahead) == len(budgets) else "at no budget" if not ahead
+            else "at " + " and ".join(f"{b:g} s" for b in ahead) + " only")
+    parts.append(f"{when} on {', '.join(names)}")
+  return "; ".join(parts)
+
+
 def readme_sentence(by_budget) -> str:
-  """The README's line: the mean lead at each budget and where HALO trails
-  at the largest (empty until every scene of the study has both methods at
-  every budget)."""
+  """The README's line: the mean lead at each budget and, per scene, the
+  budgets at which HALO leads (empty until every scene of the study has
+  both methods at every budget)."""
   means, scenes = mean_leads(by_budget)
   if len(scenes) < len(suites.BUDGET_SCENES):  # a partial study says nothing in the README
     return ""
-  top = max(by_budget)
-  behind = [s for s in scenes if lead(by_budget[top][s]) <= 0]
   figures = ", ".join(f"{means[b]:+.2f} dB at {b:g}" for b in sorted(means))
   return (f"[Budget study](docs/results/{PAGE}.md), validation views, {len(scenes)} scenes: "
-          f"halo − nerf_tuned {figures} reference seconds; HALO's margin {trend(means)} with "
-          "the budget" + (f", and at {top:g} s HALO trails on {', '.join(behind)}." if behind
-                          else f", and at {top:g} s HALO leads on every scene."))
+          f"halo − nerf_tuned {figures} reference seconds on average; HALO leads "
+          f"{where_halo_leads(by_budget, scenes)}.")
 
 
 def probes(results) -> dict:
@@ -206,19 +232,23 @@ def _mean(ps, *keys):
   return None if any(v is None for v in vals) else float(np.mean(vals))
 
 
-# Another sampler counts as capping Hi's field when it adds this much to it.
-SAMPLER_DB = 0.1
+# Another sampler counts as capping Hi's field when it adds this much to it;
+# samplers within TIE_DB of each other count as equal.
+SAMPLER_DB, TIE_DB = 0.1, 0.05
 OTHER_SAMPLERS = {"own_twice_samples": "twice its own samples",
                   "baseline_sampler": f"{BASELINE}'s sampler",
                   "twice_baseline_samples": f"{BASELINE}'s sampler at twice its samples"}
 
 
-def probe_reading(ps) -> str:
-  """The probes' verdict: whether Hi's field or its sampler sets the margin."""
+def probe_reading(ps, gain_on_lo=None) -> str:
+  """The probes' verdict: whether Hi's field or its sampler sets the margin,
+  and whether Hi gains on Lo (`gain_on_lo`: Hi − Lo from the records)."""
   own = _mean(ps, "psnr", "own")
   gap = _mean(ps, "psnr", "twice_baseline_samples") - _mean(ps, "psnr",
                                                             f"{BASELINE}_twice_samples")
-  best = max(OTHER_SAMPLERS, key=lambda k: _mean(ps, "psnr", k))
+  top = max(_mean(ps, "psnr", k) for k in OTHER_SAMPLERS)
+  # the first (the cheapest) of the other samplers within a rounding of the best
+  best = next(k for k in OTHER_SAMPLERS if _mean(ps, "psnr", k) >= top - TIE_DB)
   gain = _mean(ps, "psnr", best) - own
   text = (f"at equal dense sampling Hi's field is {'ahead of' if gap >= 0 else 'behind'} "
           f"{BASELINE}'s ({gap:+.2f} dB)")
@@ -227,6 +257,9 @@ def probe_reading(ps) -> str:
              "recovers it)")
   elif gap < 0:
     text += ": the margin is lost in training, not in the sampler"
+  if gain_on_lo is not None:
+    text += (f"; Hi {'gains' if gain_on_lo > 0 else 'loses'} {abs(gain_on_lo):.2f} dB on "
+             "halo's own Lo-NeRF")
   return f"Reading: {text}."
 
 
@@ -264,11 +297,17 @@ def probe_sentences(ps) -> list:
   return lines
 
 
-def probe_section(by_key) -> list:
-  """The page's section on the probes: a table of re-rendered PSNRs and, per
-  scene and budget, what they say."""
+def probe_section(by_key, by_budget) -> list:
+  """The page's section on the probes: where HALO trails at the largest
+  budget and why, a table of re-rendered PSNRs and, per scene and budget,
+  what they say (by_budget: study()'s records, for the leads and Hi − Lo)."""
   if not by_key:
     return []
+  reading = {k: probe_reading(ps, hi_minus_lo(by_budget.get(k[0], {}).get(k[1], {})))
+             for k, ps in by_key.items()}
+  top = max(by_budget)
+  behind = [(s, lead(by_budget[top].get(s, {}))) for s in suites.BUDGET_SCENES]
+  behind = [(s, x) for s, x in behind if x is not None and x < 0]
   cols = ("own", "own_twice_samples", "baseline_sampler", "twice_baseline_samples", BASELINE,
           f"{BASELINE}_twice_samples")
   out = ["## What sets the margin", "",
@@ -280,6 +319,9 @@ def probe_section(by_key) -> list:
          "window against each field's surface (the depth of the largest weight, on the rays "
          "both see as opaque), L_empty's share of Hi's loss, and the opacity on background "
          "pixels. Mean over the probed seeds (in brackets).", "",
+         *(f"- At {top:g} s HALO trails on {s} ({x:+.2f} dB). " + (
+             reading[(top, s)] if (top, s) in reading else "Not probed.")
+           for s, x in behind), *([""] if behind else []),
          "| budget | scene | Hi as scored | Hi, 2× its samples | Hi, nerf_tuned's sampler | "
          "Hi, 2× that | nerf_tuned | nerf_tuned, 2× |", "|---|---|---|---|---|---|---|---|"]
   in_order = sorted(by_key.items(), key=lambda kv: (suites.BUDGET_SCENES.index(kv[0][1]),
@@ -290,7 +332,7 @@ def probe_section(by_key) -> list:
         + " |")
   out.append("")
   for (b, scene), ps in in_order:
-    out += [f"- **{scene} at {b:g} s.** {probe_reading(ps)} " + " ".join(probe_sentences(ps))]
+    out += [f"- **{scene} at {b:g} s.** {reading[(b, scene)]} " + " ".join(probe_sentences(ps))]
   return out + [""]
 
 
@@ -346,7 +388,7 @@ def write(all_suites, docs, results="") -> str:
             *(f"- {overfitting_sentence(m, overfitting(top[m]))}" for m in (BASELINE, METHOD)
               if m in top), "", f"![{s}]({png})", ""]
   if results:
-    out += probe_section(probes(results))
+    out += probe_section(probes(results), by_budget)
   with open(os.path.join(docs, f"{PAGE}.md"), "w") as f:
     f.write("\n".join(out))
   return readme_sentence(by_budget)
