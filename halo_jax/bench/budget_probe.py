@@ -91,11 +91,8 @@ def guide_depth(config, dataset, states, o, d, chunk):
   if g is None or g[0].geometry not in (Geometry.SPHERE, Geometry.NDC):
     return None
   guide, sampler_cfg = g
-  depth_of = jax.jit(lambda o, d: raycast.ray_field_depth(guide, o, d)[0])
-  flat_o, flat_d = o.reshape(-1, 3), d.reshape(-1, 3)
-  parts = [np.asarray(depth_of(flat_o[i:i + chunk], flat_d[i:i + chunk]))
-           for i in range(0, flat_o.shape[0], chunk)]
-  return np.concatenate(parts).reshape(o.shape[:-1]), sampler_cfg
+  depth_of = jax.jit(lambda o, d: {"depth": raycast.ray_field_depth(guide, o, d)[0]})
+  return raycast.render_chunked(depth_of, o, d, chunk)["depth"], sampler_cfg
 
 
 def window_facts(depth, sampler_cfg, near, far, own, other, opaque, sq_err) -> dict:
