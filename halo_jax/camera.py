@@ -73,6 +73,31 @@ def orbit_path(radius: float, num_frames: int, elevation_deg: float = 30.0):
                    for az in np.linspace(0.0, 360.0, num_frames, endpoint=False)])
 
 
+def rays_between(key, origins, dirs, num_rays: int):
+  """Random rays between given rays: each a random mix (1 - a) r_i + a r_j,
+  of origins and of directions alike, of two rays drawn at random, a uniform
+  in [0, 1]. In NDC a ray is its origin on the near plane and its step to the
+  far plane, both affine in the camera's position and pixel, so a mix of two
+  training rays is a ray that a camera between theirs could see: the random
+  rays of forward-facing scenes, which have no hemisphere of cameras.
+
+  Args:
+    key: PRNG key.
+    origins, dirs: [R, 3] the rays to draw between (numpy or jax).
+    num_rays: B.
+
+  Returns:
+    origins [B, 3], dirs [B, 3] (jax float32).
+  """
+  k_i, k_j, k_a = jax.random.split(key, 3)
+  origins = jnp.asarray(origins, jnp.float32)
+  dirs = jnp.asarray(dirs, jnp.float32)
+  i = jax.random.randint(k_i, (num_rays,), 0, origins.shape[0])
+  j = jax.random.randint(k_j, (num_rays,), 0, origins.shape[0])
+  a = jax.random.uniform(k_a, (num_rays, 1))
+  return (1.0 - a) * origins[i] + a * origins[j], (1.0 - a) * dirs[i] + a * dirs[j]
+
+
 def random_hemisphere_rays(key, num_rays: int, radius: float, focal_over_width: float):
   """Rays from random cameras on the upper hemisphere, looking at the origin.
 

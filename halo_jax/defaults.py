@@ -81,13 +81,16 @@ def _radiance_stage(L, scale, use_viewdirs, steps, num_samples, sampler):
   cfg.model = _nerf_model(use_viewdirs)
   cfg.sampler = ml_collections.ConfigDict(dict(
       kind=sampler,         # samplers.SAMPLERS: 'stratified', 'hierarchical', 'coarse_fine',
-                            # 'depth_guided', 'joint'
+                            # 'depth_guided', 'depth_guided_fine', 'joint'
       num_samples=num_samples,
-      num_coarse=64,        # hierarchical, coarse_fine: stratified samples of the first pass
+      num_coarse=64,        # hierarchical, coarse_fine, depth_guided_fine: first-pass samples
       coarse_weight=0.1,    # hierarchical, coarse_fine: weight of the first pass's L_rec
       coarse_model=False,   # coarse_fine: the first pass has its own MLP (the original NeRF)
       window=0.3,           # depth_guided: r, half window as a fraction of far - near
       near_only=False,      # depth_guided: tighten only the near side (authors' code)
+      # depth_guided: r falls from window_start over window_steps (0: none); num_full
+      # of the samples span all of [near, far], where the window may miss a surface
+      window_start=0.0, window_steps=0, num_full=0,
   ))
   # L_unseen (stages/unseen.py): mean density at random points that fewer
   # than min_views training cameras see (weight 0: off; methods/halo_unseen.py)
@@ -106,6 +109,7 @@ def _radiance_stage(L, scale, use_viewdirs, steps, num_samples, sampler):
   # encoding.with_lo, which prepends Lo-NeRF's P.E. to this stage's (not for
   # the 'lo' stage itself).
   cfg.init_from_lo = False
+  cfg.copy_lo_under_budget = False  # both of those under a budget (protocol.resolve)
   # keep the parameters that score best on data.select_views at the held-out
   # evaluations (eval_every / eval_every_s), not the last (stages/selection.py)
   cfg.select_best = False
@@ -277,7 +281,8 @@ def _ray_stage():
   r.model = _model()
   r.radius = 0.0              # sphere of the ray parametrisation (0: camera radius)
   r.depth_target = "max_weight"  # one of raycast.DEPTH_TARGETS
-  r.acc_weight = 1.0          # L_ray's opacity term (0: depth alone, the authors' 360 code)
+  r.acc_weight = 1.0          # L_ray's opacity term (0: depth alone)
+  r.random_acc = True         # ... on the random rays too (False: training rays alone)
   r.random_fraction = 0.5     # share of each batch drawn from random hemisphere rays
   r.bank_rays = 262144        # random rays rendered once by the frozen Lo-NeRF
   r.lo_samples = 0            # samples for the Lo-NeRF targets (0: Lo's own count)
@@ -348,21 +353,17 @@ def base_config() -> ml_collections.ConfigDict:
 
 
 def cpu_sized(c: ml_collections.ConfigDict, budget_s: float) -> ml_collections.ConfigDict:
-  """Shrinks a config to fit `budget_s` reference seconds of training on one
-  CPU core ('budget' protocol: halo_jax/protocol.py).
+  """Shrinks a config to `budget_s` reference seconds on one CPU core (protocol.py).
 
   The HALO stages share the budget as `budget_shares` says. The choices were
   measured on lego 8-view at 100x100 (docs/notes/2026-11-22-lego-cpu.md):
-  - Lo-NeRF: 128x4 MLP, 32 samples, 4x the paper's learning rate and P.E.
-    L=5, s=1 (the paper's one-side Lo setting) instead of s=32: at s=32 the
-    nearly linear features need thousands of steps the budget does not have.
-  - Hi-NeRF: the same 128x4 trunk with 32 samples (HALO places them from
-    the ray field, r=0.3; under a budget HALO starts Hi as Lo's exact copy:
-    methods/halo.py).
+  - Lo-NeRF: 128x4 MLP, 32 samples, 4x the paper's rate, P.E. L=5, s=1 (the
+    paper's one-side Lo): s=32's near-linear features need more steps.
+  - Hi-NeRF: the same 128x4 trunk with 32 samples in the ray field's window
+    (r=0.3), under a budget started as Lo's exact copy (methods/halo.py).
   - No view directions for either NeRF: with 8 views at 100x100 there is too
     little data to learn view dependence, and Lo-NeRF has none to copy.
-  - The NeRF baseline (methods/nerf_tuned.py) uses the same 128x4 Hi model
-    with 64 stratified samples.
+  - nerf_tuned: the same 128x4 model with 64 stratified samples.
   Steps are caps that the time budget normally reaches first; the learning
   rate decays over them.
   """

@@ -69,9 +69,13 @@ def reconstruction(rgb, target):
 
 def ray_field(depth, acc, depth_target, acc_target, far, acc_weight=1.0):
   """L_ray = MSE(d / far, d_lo / far) + acc_weight MSE(acc, acc_lo). All [...]
-  -> scalar (acc_weight 0: the depth term alone)."""
-  return over_rays(lambda d, a, dt, at: ray_field_error(d, a, dt, at, far, acc_weight),
-                   *(_rows(x) for x in (depth, acc, depth_target, acc_target)))
+  -> scalar (acc_weight 0: the depth term alone; an array [...] of them
+  weighs each ray's opacity term on its own)."""
+  if jnp.ndim(acc_weight) == 0:
+    return over_rays(lambda d, a, dt, at: ray_field_error(d, a, dt, at, far, acc_weight),
+                     *(_rows(x) for x in (depth, acc, depth_target, acc_target)))
+  return over_rays(lambda d, a, dt, at, w: ray_field_error(d, a, dt, at, far, w),
+                   *(_rows(x) for x in (depth, acc, depth_target, acc_target, acc_weight)))
 
 
 def empty_space(acc, lo_acc, tau: float = 0.01):

@@ -12,8 +12,12 @@
 
 `resolve` fixes the step counts once, before anything trains, from the
 config alone; it writes only the stage fields it owns (`budget_steps`,
-`ref_step_s`, `ref_setup_s`, `ref_offset_s`, `max_seconds`) and is
-idempotent, so the pipeline can resolve again what `configure` resolved.
+`ref_step_s`, `ref_setup_s`, `ref_offset_s`, `max_seconds`; under a budget,
+`init_from_lo` and `encoding.with_lo` of a stage with `copy_lo_under_budget`)
+and is idempotent, so the pipeline can resolve again what `configure`
+resolved. A method states what it does under each protocol in fields
+(`copy_lo_under_budget`) and never reads which protocol a run has: only
+`resolve` does, after every override, in whatever order they came.
 A stage with `schedule_span='stage'` (a recipe whose schedules are shares of
 its run, the authors') is the one exception: once its length is fixed,
 `steps` becomes that length and each field of SPANNED is rescaled with it,
@@ -110,12 +114,27 @@ def resolve(config):
   config (ConfigError as `check` says)."""
   check(config)
   _clear(config)
+  _copy_lo(config)
   if config.protocol == "budget":
     _budget_steps(config)
   for name in stage_names(config):
     if config[name].get("schedule_span", "steps") == "stage":
       _span_schedules(config[name])
   return config
+
+
+def _copy_lo(config):
+  """Under the 'budget' protocol, each stage with `copy_lo_under_budget`
+  starts as Lo-NeRF's exact copy (init_from_lo, encoding.with_lo): the few
+  thousand steps a budget allows do not bring a field trained from scratch
+  back to where Lo already is (methods/halo.py). Set before the step table is
+  read: with_lo widens the stage's input, so it is part of the stage's key."""
+  if config.protocol != "budget":
+    return
+  for name in stage_names(config):
+    if config[name].get("copy_lo_under_budget", False):
+      config[name].init_from_lo = True
+      config[name].encoding.with_lo = True
 
 
 def _span_schedules(cfg):

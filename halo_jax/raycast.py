@@ -112,7 +112,8 @@ def render_rays(model, sampler_cfg, params, origins, dirs, key, *, near, far,
     noise: density noise std (training only).
     guide: ray field for sampler_cfg.kind == 'depth_guided'.
     times: [R, 1] ray times for a dynamic field, else None.
-    window: the guided samplers' half window (None: sampler_cfg.window).
+    window: the guided samplers' half window (None: sampler_cfg.window);
+      sampler_cfg.num_full of a guided sampler's samples span all of [near, far].
 
   Returns:
     list of render dicts, coarse first; the last is the final rendering.
@@ -125,7 +126,7 @@ def render_rays(model, sampler_cfg, params, origins, dirs, key, *, near, far,
     guide_depth, _ = ray_field_depth(guide, origins, dirs)
     guide_depth = jax.lax.stop_gradient(guide_depth)
   edges = functools.partial(spec.edges, sampler_cfg, near=near, far=far, randomized=randomized,
-                            window=window)
+                            window=window, num_full=sampler_cfg.get("num_full", 0))
   t = jax.vmap(lambda k, g: edges(k, guide_depth=g))(k_s, guide_depth)
   first = params if coarse_params is None else coarse_params
   out = [composite(model, first, origins, dirs, t, white_background, k_n, noise, times,

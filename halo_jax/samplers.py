@@ -60,19 +60,18 @@ class SamplerSpec:
         interval the union adds) in the window (with_full_range).
       randomized: jitter the samples.
     """
+    n = sampler_cfg.num_coarse if self.importance else sampler_cfg.num_samples
     if not self.guided:
-      n = sampler_cfg.num_coarse if self.importance else sampler_cfg.num_samples
       return stratified(key, near, far, n, randomized)
     window = sampler_cfg.window if window is None else window
     if self.guided_edges is not None:
-      return self.guided_edges(key, guide_depth, near, far, window, sampler_cfg.num_samples,
-                               num_full, randomized)
-    n_win, k_full = sampler_cfg.num_samples, None
+      return self.guided_edges(key, guide_depth, near, far, window, n, num_full, randomized)
+    n_win, k_full = n, None
     if num_full > 0:
       n_win -= num_full + 1
       if n_win < 1:
-        raise ValueError(f"{num_full} full-range samples leave no window samples of "
-                         f"sampler.num_samples={sampler_cfg.num_samples} (joint.full_range)")
+        raise ValueError(f"{num_full} full-range samples leave no window samples of the "
+                         f"{n} a ray has (sampler.num_full, joint.full_range)")
       key, k_full = jax.random.split(key)
     edges = depth_guided(key, guide_depth, near, far, n_win, window, sampler_cfg.near_only,
                          randomized)
@@ -87,6 +86,11 @@ SAMPLERS.register("coarse_fine", SamplerSpec(importance=True, merge_coarse=True,
                                              geometries=geometry.SPATIAL))
 SAMPLERS.register("depth_guided", SamplerSpec(guided=True, needs=("ray",),
                                               geometries=geometry.SPATIAL, dynamic=False))
+# The window's num_coarse samples, then num_samples drawn from their weights,
+# composited together (NeRF's coarse + fine inside the ray field's window).
+SAMPLERS.register("depth_guided_fine", SamplerSpec(
+    guided=True, importance=True, merge_coarse=True, needs=("ray",),
+    geometries=geometry.SPATIAL, dynamic=False))
 # A ray field trained with the stage: in 3D it follows Lo-NeRF's depth; on a
 # light field, the radiance field's own.
 SAMPLERS.register("joint", SamplerSpec(guided=True, trains_guide=True, dynamic=False))
@@ -145,6 +149,20 @@ def depth_window(depth, near, far, radius: float, near_only: bool = False):
   hi = far if near_only else jnp.where(finite, jnp.minimum(far, d + half), far)
   lo, hi = jnp.broadcast_arrays(lo, hi)
   return lo, hi
+
+
+def window_at(sampler_cfg, step):
+  """A guided sampler's half window at training `step`: `window_start`
+  falling linearly to `window` over `window_steps` steps; None where the
+  window is constant (window_steps 0), so the sampler reads `window` itself.
+
+  step may be traced; returns a float32 scalar (or None)."""
+  steps = sampler_cfg.get("window_steps", 0)
+  if steps <= 0:
+    return None
+  frac = jnp.clip(jnp.asarray(step, jnp.float32) / steps, 0.0, 1.0)
+  start = sampler_cfg.window_start
+  return jnp.float32(start) + (sampler_cfg.window - start) * frac
 
 
 def depth_guided(key, depth, near, far, num_samples: int, radius: float,

@@ -31,12 +31,14 @@ TIMELESS = frozenset((
     "ref_step_s", "ref_setup_s", "ref_offset_s", "lr_init", "lr_final", "lr_power",
     "lr_decay_steps", "checkpoint_every", "log_every", "eval_every", "eval_every_s", "select_best",
     "precrop_steps", "precrop_frac", "fg_steps", "fg_fraction", "density_noise", "init_from_lo",
+    "copy_lo_under_budget",
     "init_skip_fresh", "encoding.scale", "encoding.time_scale", "encoding.auto",
     "model.density_bias", "empty.tau", "empty.start_step", "empty.density_noise",
     "freq_reg.end", "joint.alpha_final", "joint.alpha_steps", "joint.seed", "fourier.seed",
     "fourier.st_std", "fourier.theta_std", "fourier.uv_std", "joint.std", "joint.uv_std",
-    "sampler.window", "sampler.coarse_weight", "collapse.margin_db", "collapse.after_steps",
-    "collapse.window", "radius", "tau", "schedule_span", "acc_weight"))
+    "sampler.window", "sampler.window_start", "sampler.window_steps", "sampler.num_full",
+    "sampler.coarse_weight", "collapse.margin_db", "collapse.after_steps",
+    "collapse.window", "radius", "tau", "schedule_span", "acc_weight", "random_acc"))
 # Weights: only whether the term is on sets the time.
 WEIGHTS = ("weight", "consist_weight", "color_weight", "nerf_consist_weight")
 

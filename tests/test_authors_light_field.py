@@ -232,8 +232,10 @@ def test_halo_authors_on_blender_is_their_static_recipe():
   assert c.stages == "lo,ray,hi" and c.ray.depth_target == "max_weight_open_end"
   for stage in (c.lo, c.hi):
     assert (stage.model.density_activation, stage.model.density_bias) == ("relu", 0.0)
-  # nelf_nerf360.py:145-151,198: the ray field's opacity loss is commented out
-  assert c.ray.acc_weight == 0.0
+  # nelf_nerf360.py:164: the ray field's opacity loss on the training rays,
+  # at consist_loss_weight (1); :198, the same on the random rays, is
+  # commented out, while :197 keeps their depth term (random_fraction 0.5)
+  assert (c.ray.acc_weight, c.ray.random_acc, c.ray.random_fraction) == (1.0, False, 0.5)
   assert hi.sampler.near_only and not hi.model.use_viewdirs and hi.precrop_steps == 1000
   # L_empty from step 0 on 8-view lego (lf_hf_nerf_8view_gpu.py:17: empty_start_iter='0')
   assert (hi.empty.density_noise, hi.empty.num_samples, hi.empty.start_step) == (1.0, 128, 0)
@@ -255,6 +257,35 @@ def test_halo_authors_on_blender_is_their_static_recipe():
   for scene in ("chair", "ship", "materials", "hotdog"):
     assert configure.load(f"configs/blender.py:{scene}_8view",
                           "halo_authors").hi.empty.start_step == 0
+
+
+def test_authors_lo_nerf_is_their_lfnerf_config():
+  """configs/nelf_nerf_synthetic_hotdog_sparse_lfnerf.py as
+  scripts/lf_hf_nerf_8view_gpu.py:29-35 launches it (no overrides) and
+  lf_hf_nerf_oneside.py:15-24 (scale 1, 3 epochs)."""
+  from halo_jax import protocol
+  from halo_jax.stages import step
+  lo = configure.load("configs/blender.py:lego_8view", "halo_authors").lo
+  # :10-11 BaseEmbedder nb_freqs=5, scale=32; :50 coarse_field use_dirs=False
+  assert (lo.encoding.L, lo.encoding.scale, lo.model.use_viewdirs) == (5, 32.0, False)
+  # :61 alpha_noise_std=1.0; :82 precrop_frac=0.5, to 1 at iteration 500 (:128)
+  # of 10 epochs (:103) x 100 repeats (:85) x 8 images, one image a batch = 8000
+  assert (lo.density_noise, lo.precrop_frac) == (1.0, 0.5)
+  assert lo.steps == 8000 and lo.precrop_steps == 500
+  # :97 Adam lr 5e-4; :102 Poly power 2, min_lr 1e-4 (absolute), over the run
+  assert (lo.lr_init, lo.lr_final, lo.lr_power, lo.schedule_span) == (5e-4, 1e-4, 2.0, "stage")
+  rate = step.schedule(lo)
+  assert float(rate(0)) == pytest.approx(5e-4) and float(rate(8000)) == pytest.approx(1e-4)
+  assert float(rate(4000)) == pytest.approx(1e-4 + 4e-4 * 0.5 ** 2)
+  # one side: scale 1 (:21), 3 epochs (:22) of 14 images: 4200 iterations
+  one = configure.load("configs/blender.py:lego_oneside", "halo_authors").lo
+  assert (one.encoding.scale, one.steps, one.precrop_steps) == (1.0, 4200, 500)
+  # under a budget the crop is the same share of the steps Lo trains
+  c = protocol.resolve(configure.load("configs/blender.py:lego_8view_cpu", "halo_authors",
+                                      {"protocol": "steps", "budget_s": 0.0,
+                                       "lo.stop_at_step": 480}))
+  assert (c.lo.steps, c.lo.precrop_steps) == (480, round(round(500 / 8000 * 1500) * 480 / 1500))
+  assert float(step.schedule(c.lo)(480)) == pytest.approx(1e-4)
 
 
 def test_authors_schedules_span_the_steps_hi_trains():

@@ -153,3 +153,44 @@ def test_fern_regnerf_3view_config_loads_its_split(monkeypatch):
   c = configure.as_method(llff_cfg.get_config("fern_3view_cpu"), "halo")
   ds = datasets.load(c.data)
   assert ds.train.names == ("001", "010", "019") and ds.test.names == ("000", "008", "016")
+
+
+def test_rays_between_training_rays_are_ndc_rays_between_their_cameras(tmp_path):
+  """camera.rays_between on a rig's NDC rays: every mix starts on the near
+  plane and reaches the far plane in one step (o_z = -1, d_z = 2), and a mix
+  of two rays is the ray of the pixel between theirs seen from between their
+  cameras (NDC is affine in both for cameras that share a rotation)."""
+  import jax
+  root = write_llff(str(tmp_path / "scene"))
+  ds = datasets.load(llff_config(root).data)
+  o, d = ds.train.rays()
+  o, d = o.reshape(-1, 3), d.reshape(-1, 3)
+  mo, md = (np.asarray(x) for x in camera.rays_between(jax.random.PRNGKey(0), o, d, 4096))
+  np.testing.assert_allclose(mo[:, 2], -1.0, atol=1e-5)
+  np.testing.assert_allclose(md[:, 2], 2.0, atol=1e-5)
+  # inside the training rays' box, and spread over it (not the training rays)
+  for x, ref in ((mo, o), (md, d)):
+    assert np.all(x.min(0) >= ref.min(0) - 1e-6) and np.all(x.max(0) <= ref.max(0) + 1e-6)
+  dist = np.min(np.abs(mo[:256, None, :2] - o[None, :, :2]).sum(-1), axis=1)
+  assert np.median(dist) > 1e-3
+  # the mid mix of one pixel seen by cameras 0 and 1 (centres 0 and 0.1 in x)
+  # is that pixel's ray from the camera at x = 0.05
+  rig = datasets.load(llff_config(root).data)
+  c2w = np.asarray(rig.train.c2w[:2])
+  mid = c2w[0].copy()
+  mid[:3, 3] = 0.5 * (c2w[0][:3, 3] + c2w[1][:3, 3])
+  h, w, f = rig.train.height, rig.train.width, rig.train.focal
+  world = [camera.pixel_rays(m, h, w, f) for m in (c2w[0], c2w[1], mid)]
+  ndc = [camera.ndc_rays(np.asarray(wo), np.asarray(wd), h, w, f) for wo, wd in world]
+  np.testing.assert_allclose(0.5 * (ndc[0][0] + ndc[1][0]), ndc[2][0], atol=1e-5)
+  np.testing.assert_allclose(0.5 * (ndc[0][1] + ndc[1][1]), ndc[2][1], atol=1e-5)
+
+
+@pytest.mark.slow
+def test_forward_facing_ray_field_trains_on_random_rays(tmp_path):
+  root = write_llff(str(tmp_path / "scene"))
+  c = llff_config(root)
+  c.ray.update(random_fraction=0.5, bank_rays=512)
+  c.stages = "lo,ray"
+  infos = pipeline.run(c, str(tmp_path / "run"))
+  assert infos["ray"]["step"] == c.ray.steps

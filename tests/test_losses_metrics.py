@@ -16,7 +16,13 @@ def test_ray_field_loss_hand_case():
   got = losses.ray_field(jnp.array([3.0, 4.0]), jnp.array([1.0, 0.0]),
                          jnp.array([3.0, 6.0]), jnp.array([0.5, 0.0]), far=6.0)
   np.testing.assert_allclose(got, ((2 / 6) ** 2) / 2 + 0.25 / 2, rtol=1e-6)
-  # acc_weight 0: the depth term alone (the authors' 360-degree ray field)
+  # per-ray weights: the opacity term on the first ray alone (the authors'
+  # 360-degree ray field: opacity on training rays, not on random ones)
+  first_only = losses.ray_field(jnp.array([3.0, 4.0]), jnp.array([1.0, 0.0]),
+                                jnp.array([3.0, 6.0]), jnp.array([0.5, 0.5]), far=6.0,
+                                acc_weight=jnp.array([1.0, 0.0]))
+  np.testing.assert_allclose(first_only, ((2 / 6) ** 2) / 2 + 0.25 / 2, rtol=1e-6)
+  # acc_weight 0: the depth term alone
   depth_only = losses.ray_field(jnp.array([3.0, 4.0]), jnp.array([1.0, 0.0]),
                                 jnp.array([3.0, 6.0]), jnp.array([0.5, 0.0]), far=6.0,
                                 acc_weight=0.0)

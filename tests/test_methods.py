@@ -179,8 +179,6 @@ def _set(make, **fields):
 RULES = [
     (_set(_llff, hi__empty__weight=0.1),
      r"hi.empty \(loss term 'empty'\) takes sphere rays, not data.kind='llff' \(ndc rays\)"),
-    (_set(_llff, ray__random_fraction=0.5, ray__bank_rays=1024),
-     r"ray.random_fraction=0.5 draws random rays .* data.kind='llff'"),
     (_set(tiny_config, lo__batch_rays=0), r"lo.batch_rays=0: must be a positive integer"),
     (_set(_knights, hi__freq_reg__end=0.9),
      r"hi.freq_reg.end=0.9: the light-field stage has no P.E. bands"),

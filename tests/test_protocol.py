@@ -16,9 +16,12 @@ SETUP_S = {"lo": 0.0, "ray": 2.0, "hi": 0.5}
 
 
 def _table(tmp_path, config, names=("lo", "ray", "hi"), setup_s=None):
-  """A step table holding config's keys at STEP_S and SETUP_S (or setup_s)."""
+  """A step table holding config's keys at STEP_S and SETUP_S (or setup_s).
+  Keys are of a resolved config (its protocol decides Hi's copy of Lo, which
+  widens Hi's input)."""
   path = str(tmp_path / "table.json")
   setup_s = SETUP_S if setup_s is None else setup_s
+  config = protocol.resolve(config.copy_and_resolve_references())
   step_table.write(path, {step_table.key(config, n): {"step_s": STEP_S[n], "setup_s": setup_s[n]}
                           for n in names}, {"cpu": "test"})
   return path
@@ -217,3 +220,56 @@ def test_a_self_measured_stage_fixes_its_count_once_and_keeps_it(scene_root, tmp
   # a relaunch keeps the count it fixed: nothing is left to train
   again = pipeline.run(c, wd)
   assert again["hi"]["step"] == fixed["steps"]
+
+
+def _stages(c) -> dict:
+  return {n: c[n].to_dict() for n in ("lo", "ray", "hi")}
+
+
+@pytest.mark.parametrize("scene", ["configs/llff.py:fern_4view", "configs/blender.py:lego_8view"])
+def test_a_budget_on_the_command_line_resolves_as_one_in_the_file(scene, tmp_path):
+  """A paper-size HALO config launched with the budget as --config overrides
+  gets the stages it gets with the budget written in its file: Hi starts as
+  Lo's copy either way (the method states it; the protocol applies it)."""
+  from absl import flags
+  from ml_collections import config_flags
+  from halo_jax import cli, config_files
+  path, _, variant = config_files.resolve(scene).partition(":")
+  in_file = tmp_path / "budgeted.py"
+  in_file.write_text(
+      "import importlib.util\n"
+      f"_spec = importlib.util.spec_from_file_location('scene', {path!r})\n"
+      "_module = importlib.util.module_from_spec(_spec)\n"
+      "_spec.loader.exec_module(_module)\n\n\n"
+      "def get_config():\n"
+      f"  c = _module.get_config({variant!r})\n"
+      "  c.protocol, c.budget_s = 'budget', 180.0\n"
+      "  return c\n")
+  launched = {}
+  for name, argv in (("line", [f"--config={scene}", "--config.protocol=budget",
+                               "--config.budget_s=180"]),
+                     ("file", [f"--config={in_file}"])):
+    fv, argv = flags.FlagValues(), ["halo-train"] + argv
+    config_flags.DEFINE_config_file("config", None, "scene", flag_values=fv, sys_argv=argv)
+    fv(argv)
+    launched[name] = cli.config_of_flags(fv["config"], "halo")
+  assert launched["line"].hi.init_from_lo and launched["line"].hi.encoding.with_lo
+  assert _stages(launched["line"]) == _stages(launched["file"])
+  # and the method applied to an already budgeted scene gives the same again
+  assert _stages(configure.as_method(configure.load_scene(str(in_file)), "halo")) == \
+      _stages(launched["line"])
+
+
+def test_a_budget_given_after_the_method_still_copies_lo_and_paper_does_not():
+  c = configure.load("configs/llff.py:fern_4view", "halo",
+                     {"protocol": "budget", "budget_s": 180.0})
+  assert c.hi.init_from_lo and c.hi.encoding.with_lo
+  again = protocol.resolve(c.copy_and_resolve_references())
+  assert _stages(again) == _stages(c)  # idempotent
+  cpu_as_paper = configure.load("configs/llff.py:fern_4view_cpu", "halo",
+                                {"protocol": "paper", "budget_s": 0.0})
+  assert not (cpu_as_paper.hi.init_from_lo or cpu_as_paper.hi.encoding.with_lo)
+  # an explicit choice stands: the copy is the method's field, not forced
+  fresh = configure.load("configs/llff.py:fern_4view_cpu", "halo",
+                         {"hi.copy_lo_under_budget": False})
+  assert not (fresh.hi.init_from_lo or fresh.hi.encoding.with_lo)

@@ -49,9 +49,14 @@ FLAGS = flags.FLAGS
 
 
 def _terms(study: Study) -> suites.Suite:
-  """The CPU suite's budget, core count and curve settings, on the study's
-  scenes' validation views."""
-  return dataclasses.replace(suites.CPU, scenes=study.scenes,
+  """The CPU suite's terms (at the study's own budget, with the curve of the
+  budget study's suite of it) on the study's scenes' validation views."""
+  terms = suites.CPU
+  if study.budget_s and study.budget_s != suites.CPU.budget_s:
+    same = [suites.SUITES[n] for n, s in suites.BUDGET_STUDY.items() if s == study.budget_s]
+    terms = dataclasses.replace(terms, budget_s=study.budget_s,
+                                curve_points=same[0].curve_points if same else terms.curve_points)
+  return dataclasses.replace(terms, scenes=study.scenes,
                              overrides=suites.CPU.overrides + suites.VALIDATION_VIEWS)
 
 
@@ -235,7 +240,7 @@ def _overall_fronts(study: Study, recs) -> list:
 
 def _terms_text(study: Study) -> str:
   if study.budget == "time":
-    return (f"CPU suite terms: {suites.CPU.budget_s:g} s of training on one core"
+    return (f"CPU suite terms: {_terms(study).budget_s:g} s of training on one core"
             + (", each run's state saved at the suite's front times" if study.front else
                ", scored at the end"))
   return ("CPU suite terms at matched steps (each stage stops at the steps the suite's "

@@ -66,7 +66,13 @@ SUITES = (("cpu", suites.CPU, suites.CPU.scenes),
            + tuple(dataclasses.replace(s, methods=("halo_authors",),
                                        overrides=s.overrides + v.overrides)
                    for study in studies.STUDIES.values() for v in study.variants
-                   if v.method == "halo_authors" and v.overrides for s in study.scenes)))
+                   if v.method == "halo_authors" and v.overrides for s in study.scenes)),
+          # the variants of the studies that decide HALO's defaults at every
+          # budget of the budget study: a variant of another size is a new key
+          ("budget studies", suites.CPU, tuple(
+              dataclasses.replace(s, methods=(v.method,), overrides=s.overrides + v.overrides)
+              for name, study in studies.STUDIES.items() if name in studies.BUDGET_STUDIES
+              for v in study.variants if v.overrides for s in study.scenes)))
 
 
 def pairs(only: str = ""):

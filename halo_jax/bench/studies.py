@@ -4,53 +4,9 @@ plus config overrides), reference variant and seeds (run by ablations.py).
 Each variant states every field it is about, so that it stays what it says
 when a default moves.
 """
-import dataclasses
-from typing import Tuple
-
-from halo_jax.bench import suites
-
-
-@dataclasses.dataclass(frozen=True)
-class Variant:
-  name: str
-  method: str
-  overrides: Tuple[Tuple[str, object], ...] = ()
-  note: str = ""
-
-
-@dataclasses.dataclass(frozen=True)
-class Study:
-  title: str
-  question: str
-  scenes: Tuple[suites.Scene, ...]
-  variants: Tuple[Variant, ...]
-  reference: str            # the variant that is the current default
-  seeds: int
-  # "steps": each stage stops at MATCHED_STEPS; "time": the CPU suite's
-  # training-time budget, each run's front scored on the validation views.
-  budget: str = "steps"
-  # a "time" study scores each run's front (its state at the suite's front
-  # times, rendered on every validation view after training); False: only
-  # the end, where fronts would cost more than the runs (fern's 15 views)
-  front: bool = True
-
-
-def _both(field, value):
-  """The same override on Lo and Hi (Hi starts as Lo's exact copy, so model
-  fields must agree)."""
-  return ((f"lo.{field}", value), (f"hi.{field}", value))
-
-
-# methods/halo.py took two of these settings: each variant states its own
-_NEUTRAL_START = _both("model.density_bias", -1.0)
-
-
-def _hi_lr(lr):
-  return (("hi.lr_init", lr), ("hi.lr_final", lr / 10))
-
-
-# the suite's baseline beside a study's variants
-BASELINE = Variant("nerf_tuned", "nerf_tuned", note="the baseline, as in the suite")
+from halo_jax.bench import budget_studies, suites
+from halo_jax.bench.study_types import (BASELINE, NEUTRAL_START as _NEUTRAL_START, Study,  # noqa: F401
+                                        Variant, both as _both, hi_lr as _hi_lr)
 
 _DNERF = tuple(s for s in suites.CPU.scenes if s.name.startswith("dnerf_"))
 _PROCEDURAL = tuple(s for s in suites.CPU.scenes if s.name in ("spheres", "lattice"))
@@ -151,7 +107,8 @@ STUDIES = {
             Variant("near_only", "halo", (("hi.sampler.near_only", True),),
                     "the depth-guided window tightened on the near side only (the authors')"),
             Variant("partial_copy", "halo",
-                    (("hi.encoding.with_lo", False), ("hi.init_from_lo", True)),
+                    (("hi.copy_lo_under_budget", False), ("hi.encoding.with_lo", False),
+                     ("hi.init_from_lo", True)),
                     "Hi from Lo's weights, the input layer fresh (our `init_from_lo` alone)"),
             Variant("empty_from_step_100", "halo", (("hi.empty.start_step", 100),),
                     "L_empty switched on after 100 of Hi's ~570 steps"),
@@ -209,7 +166,8 @@ STUDIES = {
                     "r = 0.3; Hi at 2e-3 -> 2e-4)"),
             Variant("lo_scale_4", "halo", (("lo.encoding.scale", 4.0),),
                     "Lo's P.E. at s = 4 (higher frequencies)"),
-            Variant("hi_fresh", "halo", (("hi.encoding.with_lo", False),
+            Variant("hi_fresh", "halo", (("hi.copy_lo_under_budget", False),
+                                         ("hi.encoding.with_lo", False),
                                          ("hi.init_from_lo", False)),
                     "Hi trained from scratch, not as Lo's copy"),
             Variant("hi_samples_64", "halo", (("hi.sampler.num_samples", 64),),
@@ -307,6 +265,7 @@ STUDIES = {
                     "the baseline's layers with bfloat16 operands"),
         ),
         reference="halo", seeds=1, budget="time"),
+    **budget_studies.STUDIES,
 }
 
 
@@ -328,3 +287,6 @@ MATCHED_STEPS = {
     "sparse": {"lo": 466, "ray": 732, "hi": 570},
     "dnerf_hellwarrior": {"lo": 348, "hi": 403},  # hook's: the same frame count and size
 }
+
+# The studies run at each budget of the budget study (budget_studies.py).
+BUDGET_STUDIES = tuple(budget_studies.STUDIES)

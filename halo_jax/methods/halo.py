@@ -51,6 +51,13 @@ def _copy_lo(c):
   c.hi.encoding.with_lo = True
 
 
+def _copy_lo_under_budget(c):
+  """Hi-NeRF starts as Lo-NeRF's exact function when the run is budgeted.
+  protocol.resolve reads the protocol, so the order in which the budget and
+  the method are given does not matter."""
+  c.hi.copy_lo_under_budget = True
+
+
 def _empty_weight(c):
   return PROTOCOL_EMPTY_WEIGHT.get(c.data.protocol, EMPTY_WEIGHT)
 
@@ -62,8 +69,7 @@ def sphere(c):
   c.lo.precrop_steps = 0
   if c.data.white_background:  # photos of a room have no background to tell from
     c.lo.update(fg_steps=FG_STEPS, fg_fraction=FG_FRACTION)
-  if c.budget_s:
-    _copy_lo(c)
+  _copy_lo_under_budget(c)
 
 
 def ndc(c):
@@ -73,8 +79,7 @@ def ndc(c):
   # keep empty, and no hemisphere of cameras to draw random rays from.
   c.hi.empty.weight = 0.0
   c.ray.update(random_fraction=0.0, bank_rays=0)
-  if c.budget_s:
-    _copy_lo(c)
+  _copy_lo_under_budget(c)
 
 
 def dynamic(c):

@@ -1,5 +1,6 @@
 """A frozen Lo-NeRF's depth and opacity rendered once, as targets: on the
-training rays, and on a bank of random hemisphere rays. Read by the ray-field
+training rays, and on a bank of random rays (from cameras on a hemisphere,
+or between the training rays in NDC). Read by the ray-field
 stage (L_ray), L_empty and the 3D joint sampler's L_consist."""
 import jax
 import numpy as np
@@ -51,5 +52,17 @@ def random_ray_bank(lo_state: StageState, num_rays, radius, focal_over_width, ne
   if models.is_dynamic(lo_state.config, "lo"):
     times = np.asarray(jax.random.uniform(k_time, (num_rays, 1)))
   return on_rays(lo_state, Rays(np.asarray(o), np.asarray(d), times), num_samples=num_samples,
+                 near=near, far=far, white_background=white_background, target=target,
+                 chunk=chunk, block_rays=block_rays)
+
+
+def between_ray_bank(lo_state: StageState, num_rays, origins, dirs, near, far,
+                     white_background, num_samples, seed, target="max_weight", chunk=8192,
+                     block_rays=0) -> Targets:
+  """Random rays between the training rays `origins`, `dirs` [R, 3]
+  (camera.rays_between: forward-facing scenes) rendered once by the frozen
+  Lo-NeRF, as random_ray_bank. Returns Targets on B rays (numpy)."""
+  o, d = camera.rays_between(jax.random.PRNGKey(seed), origins, dirs, num_rays)
+  return on_rays(lo_state, Rays(np.asarray(o), np.asarray(d)), num_samples=num_samples,
                  near=near, far=far, white_background=white_background, target=target,
                  chunk=chunk, block_rays=block_rays)

@@ -61,10 +61,31 @@ def check(config, name, dspec):
   registry.check(spec.dynamic or not dspec.dynamic,
                  f"{name}.sampler.kind={cfg.sampler.kind!r} needs a ray field, which has no "
                  f"time input; {where} needs 'stratified' or 'hierarchical'")
+  _check_guided(cfg.sampler, spec, name)
   terms.check_geometries(cfg, name, dspec, where)
   registry.check(name != "lo" or not (cfg.init_from_lo or cfg.encoding.with_lo),
                  "lo.init_from_lo and lo.encoding.with_lo start a stage from Lo-NeRF; "
                  "Lo-NeRF itself takes False")
+
+
+def _check_guided(sc, spec, name):
+  """ConfigError for a guided sampler's option on a sampler that would ignore
+  it, or a share of full-range samples that leaves the window none."""
+  full, win_steps = sc.get("num_full", 0), sc.get("window_steps", 0)
+  own_edges = spec.guided and spec.guided_edges is None
+  registry.check(full == 0 or own_edges,
+                 f"{name}.sampler.num_full={full}: only the depth-guided samplers take "
+                 f"full-range samples (sampler.kind={sc.kind!r})")
+  n = sc.num_coarse if spec.importance else sc.num_samples
+  registry.check(0 <= full <= n - 2,
+                 f"{name}.sampler.num_full={full}: must leave at least one of the {n} samples "
+                 "in the window (0 <= num_full <= samples - 2)")
+  registry.check(win_steps == 0 or (own_edges and not spec.trains_guide),
+                 f"{name}.sampler.window_steps={win_steps}: only the depth-guided samplers "
+                 f"narrow their window over steps (sampler.kind={sc.kind!r})")
+  registry.check(win_steps >= 0 and (win_steps == 0 or 0 < sc.window_start <= 1),
+                 f"{name}.sampler.window_start={sc.get('window_start', 0.0)!r} with "
+                 f"window_steps={win_steps}: the starting half window must be in (0, 1]")
 
 
 def init_params(config, name, dataset):
@@ -124,14 +145,16 @@ def loss_fn(params, data: batches.StageData, key, step, part=None, *, s):
 
 
 def _guide_at(s, params, data, step):
-  """(Guide or None, the joint window or None) for this step."""
+  """(Guide or None, the guided window at this step or None: the sampler's
+  own `window`)."""
   spec = s.sampler
   if not spec.guided:
     return None, None
   if spec.trains_guide:
     return (raycast.Guide(s.guide_model, params["ray"], s.geometry, s.radius),
             joint_window(s.cfg, step))
-  return raycast.Guide(s.guide_model, data.guide, s.geometry, s.radius), None
+  return (raycast.Guide(s.guide_model, data.guide, s.geometry, s.radius),
+          samplers.window_at(s.cfg.sampler, step))
 
 
 def _guide_setup(ctx: base.StageContext):
@@ -217,7 +240,8 @@ def _eval_closures(ctx, s: StepSettings, guide_params):
     if trains_guide:  # the window the joint sampler trains with at this step
       return functools.partial(render_eval, p["nerf"], p["ray"], window=joint_window(cfg, step),
                                **kw)
-    return functools.partial(render_eval, p["nerf"], guide_params, **kw)
+    return functools.partial(render_eval, p["nerf"], guide_params,
+                             window=samplers.window_at(cfg.sampler, step), **kw)
 
   def eval_fn(params, step=None):
     return evaluate.heldout(make_eval(params, step), ds.test, config.eval.chunk,

@@ -14,6 +14,9 @@ from halo_jax.stages import base, budget, collapse, lo_targets, loop, microbatch
 from halo_jax.stages.state import StageState
 
 TEACHER = "lo"  # the stage whose depth and opacity the ray field learns
+# Random rays come from cameras on the upper hemisphere round a 360-degree
+# scene and from mixes of the training rays of a forward-facing one (NDC):
+# every geometry the stage takes (geometry.SPATIAL) has them.
 
 
 def requires(config, name):
@@ -22,11 +25,6 @@ def requires(config, name):
 
 def check(config, name, dspec):
   cfg = config[name]
-  registry.check(dspec.geometry == geometry.Geometry.SPHERE or not cfg.bank_rays
-                 or not cfg.random_fraction,
-                 f"{name}.random_fraction={cfg.random_fraction} draws random rays from cameras on "
-                 f"a hemisphere, which data.kind={config.data.kind!r} "
-                 f"({dspec.geometry.value} rays) does not have: set {name}.random_fraction=0")
   registry.check(not dspec.dynamic, f"the ray field has no time input; data.kind="
                  f"{config.data.kind!r} has frames with times: leave the '{name}' stage out")
   registry.check(cfg.depth_target in raycast.DEPTH_TARGETS,
@@ -49,17 +47,22 @@ class RayStageData(NamedTuple):
 
 
 def loss_fn(params, data: RayStageData, key, step, part=None, *, model, guide_geometry, radius,
-            far, n_train, n_random, acc_weight=1.0, mesh=None):
-  """L_ray on a batch of training rays and random hemisphere rays (or on the
-  batch's `part`, microbatch.part_of: each source is cut alike)."""
+            far, n_train, n_random, acc_weight=1.0, random_acc=True, mesh=None):
+  """L_ray on a batch of training rays and random rays (or on the batch's
+  `part`, microbatch.part_of: each source is cut alike); random_acc False
+  leaves the random rays' opacity out of it."""
   k_t, k_r = jax.random.split(key)
-  sources = []
-  for k, src, n in ((k_t, data.train, n_train), (k_r, data.random, n_random)):
+  sources, weights = [], []
+  for k, src, n, w in ((k_t, data.train, n_train, acc_weight),
+                       (k_r, data.random, n_random, acc_weight if random_acc else 0.0)):
     if n:
       i = microbatch.part_of(jax.random.randint(k, (n,), 0, src.depth.shape[0]), part)
       sources.append(src.take(i))
+      weights.append(jnp.full(i.shape, w, jnp.float32))
   batch = jax.tree_util.tree_map(
       lambda *xs: parallel.shard_batch(jnp.concatenate(xs), mesh), *sources)
+  if not random_acc and n_random:
+    acc_weight = parallel.shard_batch(jnp.concatenate(weights), mesh)
   guide = raycast.Guide(model, params["ray"], guide_geometry, radius)
   depth, acc = raycast.ray_field_depth(guide, batch.rays.origins, batch.rays.dirs)
   loss = losses.ray_field(depth, acc, batch.depth, batch.acc, far, acc_weight)
@@ -69,11 +72,13 @@ def loss_fn(params, data: RayStageData, key, step, part=None, *, model, guide_ge
 
 def _targets(ctx, lo_samples, n_random, radius) -> RayStageData:
   """Lo-NeRF's depth and opacity on the training rays (or `target_rays` of
-  them, drawn once) and on a bank of random hemisphere rays (numpy)."""
+  them, drawn once) and on a bank of random rays (numpy): from hemisphere
+  cameras, or in NDC between the training rays."""
   config, cfg, ds = ctx.config, ctx.cfg, ctx.dataset
   lo = ctx.states[TEACHER]
   o, d = ds.train.rays()
   o, d = o.reshape(-1, 3), d.reshape(-1, 3)
+  all_o, all_d = o, d
   if 0 < cfg.target_rays < o.shape[0]:
     pick = np.random.default_rng(rng.stream_seed(config.seed, rng.Stream.RAY_TARGET_RAYS))
     keep = np.sort(pick.choice(o.shape[0], cfg.target_rays, replace=False))
@@ -82,12 +87,16 @@ def _targets(ctx, lo_samples, n_random, radius) -> RayStageData:
                 target=cfg.depth_target, chunk=config.eval.chunk,
                 block_rays=config.eval.block_rays)
   train = lo_targets.on_rays(lo, Rays(o, d), num_samples=lo_samples, **common)
-  random = None
-  if n_random:
+  random, bank_seed = None, rng.stream_seed(config.seed, rng.Stream.RAY_RANDOM_BANK)
+  if n_random and ds.geometry == geometry.Geometry.NDC:
+    random = lo_targets.between_ray_bank(lo, cfg.bank_rays, all_o, all_d, ds.near, ds.far,
+                                         ds.white_background, lo_samples, bank_seed,
+                                         cfg.depth_target, config.eval.chunk,
+                                         config.eval.block_rays)
+  elif n_random:
     random = lo_targets.random_ray_bank(
         lo, cfg.bank_rays, radius, ds.train.focal / ds.train.width, ds.near, ds.far,
-        ds.white_background, lo_samples,
-        rng.stream_seed(config.seed, rng.Stream.RAY_RANDOM_BANK), cfg.depth_target,
+        ds.white_background, lo_samples, bank_seed, cfg.depth_target,
         config.eval.chunk, config.eval.block_rays)
   return RayStageData(train, random)
 
@@ -113,7 +122,8 @@ def train(ctx: base.StageContext):
   data = jax.device_put(data)
   step_loss = functools.partial(loss_fn, model=model, guide_geometry=ds.geometry, radius=radius,
                                 far=ds.far, n_train=cfg.batch_rays - n_random,
-                                n_random=n_random, acc_weight=cfg.acc_weight, mesh=ctx.mesh)
+                                n_random=n_random, acc_weight=cfg.acc_weight,
+                                random_acc=cfg.random_acc, mesh=ctx.mesh)
   cfg = budget.minus_seconds(cfg, target_s)
   # each target source with its rays per batch, as loss_fn draws them
   shares = [(src, n) for src, n in ((data.train, cfg.batch_rays - n_random),

@@ -1,0 +1,105 @@
+"""The studies that decide HALO's defaults at each budget of the budget
+study (suites.BUDGET_STUDY: 60, 240 and 960 reference seconds): a default
+changes only where it is not worse by more than 0.3 dB on any scene of its
+kind at any of them, and better on the mean (docs/validation.md)."""
+from halo_jax.bench import suites
+from halo_jax.bench.study_types import BASELINE, Study, Variant, hi_lr as _hi_lr
+
+
+# The scenes whose Hi-NeRF the ray field's window samples: every 360-degree
+# and forward-facing scene with validation views.
+_DEPTH_GUIDED = suites.VALIDATION_360 + tuple(s for s in suites.VALIDATION_SCENES
+                                              if s.name == "fern_4view")
+
+
+def _window(r=0.3, full=0, kind="depth_guided", samples=32, coarse=64):
+  return (("hi.sampler.kind", kind), ("hi.sampler.num_samples", samples),
+          ("hi.sampler.num_coarse", coarse), ("hi.sampler.window", r),
+          ("hi.sampler.num_full", full))
+
+
+def _hi_window_study(budget_s: float) -> Study:
+  """Hi-NeRF's samples in and beside the ray field's window, at one budget of
+  the budget study (docs/results/budget_study.md)."""
+  return Study(
+      title=f"Hi-NeRF's samples and the ray field's window, {budget_s:g} reference seconds",
+      question=("Whether Hi-NeRF keeps HALO's lead as training grows with its 32 samples "
+                "in a narrower window (denser where the surface is), or with some of them "
+                "over the whole ray (a surface the window misses can still form), at equal "
+                "cost, on every scene whose Hi the window samples."),
+      scenes=_DEPTH_GUIDED,
+      variants=(
+          Variant("halo", "halo", _window(), "32 samples in r = 0.3 (the CPU config)"),
+          Variant("window_0.15", "halo", _window(r=0.15), "32 samples in r = 0.15"),
+          Variant("full_8", "halo", _window(full=8),
+                  "23 samples in r = 0.3 and 8 over the whole ray"),
+          Variant("window_0.15+full_8", "halo", _window(r=0.15, full=8),
+                  "23 samples in r = 0.15 and 8 over the whole ray"),
+          BASELINE,
+      ),
+      reference="halo", seeds=2, budget="time", front=False, budget_s=budget_s)
+
+
+def _ndc_ray_study(budget_s: float) -> Study:
+  """The forward-facing ray field on random rays, at one budget of the
+  budget study."""
+  fern = tuple(s for s in suites.VALIDATION_SCENES if s.name == "fern_4view")
+  return Study(
+      title=f"Forward-facing scenes: the ray field on random rays, {budget_s:g} reference seconds",
+      question=("Whether the ray field that places Hi-NeRF's samples on a forward-facing "
+                "scene misses Lo's surface less when half of each of its batches are random "
+                "rays between the training rays (the paper trains it on random rays; ours "
+                "saw only training rays), alone and with 8 of Hi's samples over the whole "
+                "ray."),
+      scenes=fern,
+      variants=(
+          Variant("halo", "halo", (("ray.random_fraction", 0.0), ("ray.bank_rays", 0))
+                  + _window(), "the ray field on training rays only (the CPU config)"),
+          Variant("ray_random_0.5", "halo",
+                  (("ray.random_fraction", 0.5), ("ray.bank_rays", 32768)) + _window(),
+                  "half of each ray-field batch from 32768 random rays between the training "
+                  "rays, rendered once by Lo"),
+          Variant("ray_random_0.5+full_8", "halo",
+                  (("ray.random_fraction", 0.5), ("ray.bank_rays", 32768))
+                  + _window(full=8), "both: random rays, and 8 of Hi's 32 samples over the ray"),
+          BASELINE,
+      ),
+      reference="halo", seeds=2, budget="time", front=False, budget_s=budget_s)
+
+
+def _dynamic_hi_study(budget_s: float) -> Study:
+  """D-NeRF: what keeps Hi-NeRF at or above its own Lo, at one budget of the
+  budget study."""
+  return Study(
+      title=f"D-NeRF: Hi-NeRF at or above its own Lo-NeRF, {budget_s:g} reference seconds",
+      question=("Whether Hi-NeRF, started as Lo-NeRF's exact copy on a dynamic scene, ends "
+                "at or above Lo on every D-NeRF scene's val frames with a lower rate, with "
+                "its time encoding kept at Lo's low frequency, or with L_empty five times "
+                "stronger (a prior that acts for the whole run); nerf_tuned gets the time "
+                "encoding's change too."),
+      scenes=tuple(s for s in suites.VALIDATION_SCENES if s.name.startswith("dnerf_")),
+      variants=(
+          Variant("halo", "halo", _hi_lr(5e-4) + (("hi.encoding.time_L", 8),
+                                                  ("hi.empty.weight", 0.1)),
+                  "Hi at 5e-4 -> 5e-5, time_L 8, L_empty 0.1 (the CPU config)"),
+          Variant("hi_lr_2.5e-4", "halo", _hi_lr(2.5e-4) + (("hi.encoding.time_L", 8),
+                                                            ("hi.empty.weight", 0.1)),
+                  "Hi at 2.5e-4 -> 2.5e-5"),
+          Variant("hi_time_L_4", "halo", _hi_lr(5e-4) + (("hi.encoding.time_L", 4),
+                                                         ("hi.empty.weight", 0.1)),
+                  "Hi's time encoding at Lo's 4 frequencies (space keeps 10)"),
+          Variant("empty_0.5", "halo", _hi_lr(5e-4) + (("hi.encoding.time_L", 8),
+                                                       ("hi.empty.weight", 0.5)),
+                  "L_empty at 0.5"),
+          BASELINE,
+          Variant("nerf_tuned_time_L_4", "nerf_tuned", (("hi.encoding.time_L", 4),),
+                  "the baseline with 4 time frequencies"),
+      ),
+      reference="halo", seeds=2, budget="time", front=False, budget_s=budget_s)
+
+
+STUDIES = {
+    **{f"hi_window_{b:g}": _hi_window_study(b) for b in suites.BUDGET_STUDY.values()},
+    **{f"ndc_ray_{b:g}": _ndc_ray_study(b) for b in suites.BUDGET_STUDY.values()},
+    **{f"dynamic_hi_{b:g}": _dynamic_hi_study(b) for b in suites.BUDGET_STUDY.values()},
+}
