@@ -53,7 +53,7 @@ os.environ["XLA_FLAGS"] = (os.environ.get("XLA_FLAGS", "")
 
 from absl import app, flags, logging  # noqa: E402
 
-from halo_jax import datasets, defaults, pipeline, provenance  # noqa: E402
+from halo_jax import datasets, defaults, pipeline, progress, provenance  # noqa: E402
 from halo_jax.bench import code_version, fingerprint, suites  # noqa: E402
 from halo_jax.stages import collapse  # noqa: E402
 
@@ -225,10 +225,10 @@ def main(argv):
     results.update(run_shards())
   else:
     shard, num_shards = (int(x) for x in FLAGS.shard.split("/"))
-    for i, (scene, method) in enumerate(todo):
+    mine = [(scene, method) for i, (scene, method) in enumerate(todo)
+            if i % num_shards == shard and f"{scene.name}/{method}" not in results]
+    for scene, method in progress.steps(mine, "runs", "fingerprint runs"):
       key = f"{scene.name}/{method}"
-      if i % num_shards != shard or key in results:
-        continue
       with tempfile.TemporaryDirectory(prefix="same_numbers_") as workdir:
         results[key] = dict(run_one(scene, method, workdir), code_tree=tree)
       r = results[key]

@@ -114,14 +114,27 @@ def test_a_variant_that_is_a_suite_run_adopts_its_record(tmp_path):
   scene = next(s for s in suite.scenes if s.name == "spheres")
   made = ablations.benchmark.configure(suite, scene, "halo", 0, "budget", str(tmp_path / "other"))
   path = ablations.benchmark.result_path(results, "validation", "budget", scene, "halo", 0)
-  _write(path, {"psnr": 21.5, "resolved_config": json.loads(made.to_json_best_effort())})
+  git = {"commit": "abc1234", "code_tree": "tree_a", "code_dirty": False}
+  record = {"psnr": 21.5, "method": "halo", "provenance": {"git": git},
+            "resolved_config": json.loads(made.to_json_best_effort())}
+  _write(path, record)
+  table = {"tree_a": {"methods": {"halo": "fp_a"}}}
   study, study_scene, c = _configured("authors_static", "spheres", "halo", 0, tmp_path)
-  found = adopt.identical_suite_run(c, study_scene, "halo", 0, results)
+  same = lambda cfg, seed=0, fp="fp_a", method="halo": adopt.identical_suite_run(  # noqa: E731
+      cfg, study_scene, method, seed, results, table=table, mine_fp=fp)
+  found = same(c)
   assert found is not None and found[0] == path and found[1]["psnr"] == 21.5
-  assert adopt.identical_suite_run(c, study_scene, "halo", 1, results) is None
+  assert same(c, seed=1) is None
   _, _, theirs = _configured("authors_static", "spheres", "halo_authors", 0, tmp_path)
-  assert adopt.identical_suite_run(theirs, study_scene, "halo_authors", 0, results) is None
+  assert same(theirs, method="halo_authors") is None
+  # the same config from code that computes otherwise, or that no measured
+  # fingerprint vouches for, is refused
+  assert same(c, fp="fp_b") is None
+  _write(path, dict(record, provenance={"git": dict(git, code_tree="tree_b")}))
+  assert same(c) is None
+  _write(path, dict(record, provenance={"git": dict(git, code_dirty=True)}))
+  assert same(c, fp=adopt.code_version.MODIFIED) is None
   # one field apart is another run
   made.hi.lr_init *= 2
-  _write(path, {"psnr": 21.5, "resolved_config": json.loads(made.to_json_best_effort())})
-  assert adopt.identical_suite_run(c, study_scene, "halo", 0, results) is None
+  _write(path, dict(record, resolved_config=json.loads(made.to_json_best_effort())))
+  assert same(c) is None

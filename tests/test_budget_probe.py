@@ -59,6 +59,13 @@ def test_probe_renders_the_runs_as_they_scored_themselves(tmp_path):
   for key, method in (("own", "halo"), ("nerf_tuned", "nerf_tuned")):
     assert out["psnr"][key] == pytest.approx(out["record_psnr"][method], abs=1e-3)
   assert out["hi_sampler"] == {"kind": "depth_guided", "num_samples": 8}
+  # smoke: Hi's 8 guided samples, nerf_tuned's 8 stratified: every change is one thing
+  changes = {(c["field"], c["change"], c["from"], c["to"]) for c in out["one_at_a_time"]}
+  assert {("halo", "kind", k, "own") for k in ("stratified_own_count", "baseline_sampler")} & changes
+  assert ("halo", "count", "own", "own_twice_samples") in changes
+  assert ("nerf_tuned", "count", "nerf_tuned", "nerf_tuned_twice_samples") in changes
+  for c in out["one_at_a_time"]:
+    assert c["delta_db"] == pytest.approx(out["psnr"][c["to"]] - out["psnr"][c["from"]])
   g = out["guide"]
   assert 0 < g["mean_window_share"] <= 1 and 0 <= g["hi_surface_in_window"] <= 1
   bg = out["background_acc"]
@@ -73,6 +80,22 @@ def test_probe_renders_the_runs_as_they_scored_themselves(tmp_path):
   with pytest.raises(ValueError, match="not that run's workdir"):
     budget_probe.probe_run("smoke", "budget", scene, 0, results, scratch)
   assert os.path.exists(budget_probe.probe_path(results, "smoke", scene.name, 0))
+
+
+def test_one_at_a_time_pairs_change_one_thing():
+  labels = {"own": ("halo", "depth_guided", 32), "own_twice_samples": ("halo", "depth_guided", 64),
+            "stratified_own_count": ("halo", "stratified", 32),
+            "baseline_sampler": ("halo", "stratified", 64),
+            "twice_baseline_samples": ("halo", "stratified", 128),
+            "nerf_tuned": ("nerf_tuned", "stratified", 64),
+            "nerf_tuned_twice_samples": ("nerf_tuned", "stratified", 128)}
+  psnr = {k: float(i) for i, k in enumerate(labels)}
+  got = {(c["change"], c["from"], c["to"]) for c in budget_probe.one_at_a_time(labels, psnr)}
+  assert got == {
+      ("kind", "stratified_own_count", "own"), ("kind", "baseline_sampler", "own_twice_samples"),
+      ("count", "own", "own_twice_samples"), ("count", "stratified_own_count", "baseline_sampler"),
+      ("count", "baseline_sampler", "twice_baseline_samples"),
+      ("count", "nerf_tuned", "nerf_tuned_twice_samples")}
 
 
 def test_probe_rays_take_a_regular_grid_within_the_ray_budget():

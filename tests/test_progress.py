@@ -43,3 +43,4 @@ def test_a_self_measuring_stage_bar_turns_to_steps_and_names_its_floor(capsys):
   bar.close()
   last = _lines(capsys.readouterr().err)[-1]
   assert "100/100" in last and "floor=100 steps, past its 2 s share" in last, last
+

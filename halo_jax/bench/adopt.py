@@ -1,12 +1,16 @@
-"""A study's run that a suite has already made: the same resolved config, so
-the same figures (the code fingerprint checks the code), adopted instead of
-trained again (halo_jax/bench/ablations.py)."""
+"""A study's run that a suite has already made: the same resolved config and
+the same code fingerprint, so the same figures, adopted instead of trained
+again (halo_jax/bench/ablations.py)."""
 import functools
 import json
 import os
 
-from halo_jax import config_files, defaults, protocol
-from halo_jax.bench import benchmark, suites
+from absl import logging
+
+from halo_jax import config_files, defaults, protocol, provenance
+from halo_jax.bench import benchmark, code_version, suites
+
+UNVOUCHED = (code_version.MODIFIED, code_version.UNMEASURED)
 
 
 def _comparable(resolved: dict) -> dict:
@@ -44,16 +48,36 @@ def _same_config(mine: dict, theirs: dict) -> bool:
           and all(k in base and base[k] == v for k, v in added.items()))
 
 
-def identical_suite_run(c, scene, method, seed, results):
+def running_fingerprint(method: str, table: dict) -> str:
+  """The fingerprint of `method` for the code this process runs (its
+  checkout's code tree in `table`); code_version.MODIFIED or UNMEASURED
+  where it has none."""
+  return code_version.of_record({"method": method, "provenance": {"git": provenance.git_state()}},
+                                table)
+
+
+def identical_suite_run(c, scene, method, seed, results, table=None, mine_fp=None):
   """(path, record) of a finished suite run (mode 'budget') whose resolved
-  config is `c`'s, or None: a variant without overrides on the validation
-  suite's terms is that suite's run, and its figures are already measured."""
+  config is `c`'s and whose code computes what this code does, or None: a
+  variant without overrides on the validation suite's terms is that suite's
+  run, and its figures are already measured. A record of the same config
+  whose fingerprint is not this code's (`mine_fp`, by default the running
+  checkout's in `table`, results/fingerprints.json), or that no measured
+  fingerprint vouches for, is refused with a warning: its run is trained."""
+  table = code_version.load() if table is None else table
+  mine_fp = running_fingerprint(method, table) if mine_fp is None else mine_fp
   mine = _comparable(json.loads(protocol.resolve(c).to_json_best_effort()))
   for name in sorted(suites.SUITES):
     path = benchmark.result_path(results, name, "budget", scene, method, seed)
     if os.path.exists(path):
       with open(path) as f:
         record = json.load(f)
-      if _same_config(mine, _comparable(record["resolved_config"])):
+      if not _same_config(mine, _comparable(record["resolved_config"])):
+        continue
+      theirs_fp = code_version.of_record(record, table)
+      if theirs_fp == mine_fp and mine_fp not in UNVOUCHED:
         return path, record
+      logging.warning("not adopted: %s has this run's config, but its code's fingerprint "
+                      "is %s and this code's %s (same_numbers.py --record measures it)",
+                      path, theirs_fp, mine_fp)
   return None

@@ -2,12 +2,14 @@
 the nerf_tuned run of the same scene, seed and suite (issue 60):
 
 - Hi-NeRF's samples. On the same held-out views (a regular pixel grid of
-  them, MAX_RAYS at most), Hi's trained field is rendered with its own
-  sampler (as it was scored), with twice its samples, with nerf_tuned's
-  sampler over the whole [near, far] and with twice that; nerf_tuned as
-  scored and with twice its samples. What twice the samples adds to each
-  says how much its sampler, not its field, caps it; the two fields at
-  equal dense sampling compare the fields themselves.
+  them, MAX_RAYS at most: the file's pixel_stride), Hi's trained field is
+  rendered with its own sampler (as it was scored), with twice its samples,
+  stratified over the whole [near, far] at its own count, at nerf_tuned's
+  and at twice that; nerf_tuned as scored and with twice its samples.
+  `one_at_a_time` lists the differences that change one thing: the kind at
+  an equal count (what the window does), the count at an equal kind (what
+  more samples do); the two fields at equal dense sampling compare the
+  fields themselves.
 - The ray field's depth. On the rays that both Hi's field and nerf_tuned
   see as opaque: how far it lies from each one's surface (the depth of the
   largest weight, densely sampled), the share of those rays whose surface
@@ -36,7 +38,7 @@ from absl import flags, logging
 import jax
 import numpy as np
 
-from halo_jax import metrics, provenance, raycast, restore, samplers
+from halo_jax import metrics, progress, provenance, raycast, restore, samplers
 from halo_jax.bench import run_file, selection, suites, tool
 from halo_jax.bench.paths import REPO, result_path, workdir_of
 from halo_jax.bench.report_common import BASELINE
@@ -149,6 +151,27 @@ def background_facts(halo_dir, gt, hi_acc, baseline_acc, rays, chunk, tau) -> di
   return out
 
 
+def one_at_a_time(labels, psnr) -> list:
+  """The renders' differences that change one thing: the sampler's kind at
+  an equal sample count, or the count at an equal kind, on the same field.
+  labels {render: (field, sampler kind, samples)}, psnr {render: dB} ->
+  [{'field', 'change': 'kind'|'count', 'from', 'to', 'kind'|'samples',
+  'delta_db'}], `to` − `from`."""
+  by = {v: k for k, v in labels.items()}
+  out = []
+  for (field, kind, n), key in sorted(by.items()):
+    for (f2, k2, n2), key2 in sorted(by.items()):
+      if f2 != field or key2 == key:
+        continue
+      if n2 == n and kind != "stratified" and k2 == "stratified":
+        out.append({"field": field, "change": "kind", "samples": n, "from": key2, "to": key,
+                    "delta_db": psnr[key] - psnr[key2]})
+      elif k2 == kind and n2 == 2 * n:
+        out.append({"field": field, "change": "count", "kind": kind, "from": key, "to": key2,
+                    "delta_db": psnr[key2] - psnr[key]})
+  return out
+
+
 def _check_workdir(run, record, path):
   """A workdir that is not the record's run (another step count) is refused."""
   want = record["stages"]["hi"]["step"]
@@ -170,12 +193,13 @@ def probe(halo_dir, baseline_dir, halo_record, baseline_record, paths) -> dict:
   n_theirs = int(other.config.hi.sampler.num_samples)
   variants = {  # (run, sampler fields or None for the run's own)
       "own": (halo, None), "own_twice_samples": (halo, dict(num_samples=2 * n_own)),
+      "stratified_own_count": (halo, dict(kind="stratified", num_samples=n_own)),
       "baseline_sampler": (halo, dict(kind="stratified", num_samples=n_theirs)),
       "twice_baseline_samples": (halo, dict(kind="stratified", num_samples=2 * n_theirs)),
       BASELINE: (other, None),
       f"{BASELINE}_twice_samples": (other, dict(kind="stratified", num_samples=2 * n_theirs))}
   renders = {}
-  for key, (run, fields) in variants.items():
+  for key, (run, fields) in progress.steps(list(variants.items()), "renders", "probe renders"):
     fn = run.render if fields is None else base.renderer_of(
         with_sampler(run.config, "hi", **fields), "hi", ds, run.states)
     renders[key] = _render(fn, rays, chunk)
@@ -185,6 +209,11 @@ def probe(halo_dir, baseline_dir, halo_record, baseline_record, paths) -> dict:
          "hi_sampler": {"kind": halo.config.hi.sampler.kind, "num_samples": n_own},
          "psnr": {k: _psnr_mean(r["rgb"], gt) for k, r in renders.items()},
          "record_psnr": {METHOD: halo_record["psnr"], BASELINE: baseline_record["psnr"]}}
+  labels = {k: (METHOD if run is halo else BASELINE,
+                (f or {}).get("kind", run.config.hi.sampler.kind),
+                int((f or {}).get("num_samples", run.config.hi.sampler.num_samples)))
+            for k, (run, f) in variants.items()}
+  out["one_at_a_time"] = one_at_a_time(labels, out["psnr"])
   dense = renders["twice_baseline_samples"]
   opaque = (dense["acc"] > OPAQUE) & (baseline["acc"] > OPAQUE)
   g = guide_depth(halo.config, ds, halo.states, rays[0], rays[1], chunk)

@@ -36,7 +36,7 @@ import time
 
 from absl import flags, logging
 
-from halo_jax import pipeline, protocol, provenance, step_table
+from halo_jax import pipeline, progress, protocol, provenance, step_table
 from halo_jax.bench import benchmark, selection, studies, suites, tool
 
 FLAGS = flags.FLAGS
@@ -201,7 +201,7 @@ def main(argv):
   except ValueError as e:
     sys.exit(str(e))
   done, ratio = 0, None
-  for suite, scene, method in todo:
+  for suite, scene, method in progress.steps(todo, "pairs", "step table"):
     tag = f"{scene.name}/{method}"
     if scene.needs and not os.path.isdir(os.path.join(benchmark.data_root(), scene.needs)):
       print(f"no data   {tag}", flush=True)

@@ -1,0 +1,167 @@
+"""The budget study page's section on the probes (budget_probe.py): where
+HALO trails at the largest budget and why, the re-rendered PSNRs, and the
+differences that change one thing at a time."""
+import os
+
+import numpy as np
+
+from halo_jax.bench import run_file, suites
+from halo_jax.bench.report_common import BASELINE
+
+METHOD = "halo"
+
+
+def probes(results) -> dict:
+  """{(budget_s, scene): [probe, ...]} of the study's probe files
+  (budget_probe.py) under `results`."""
+  out = {}
+  for name, budget_s in suites.BUDGET_STUDY.items():
+    for scene in suites.BUDGET_SCENES:
+      folder = os.path.join(results, name, "probe", scene)
+      if os.path.isdir(folder):
+        out[(budget_s, scene)] = [run_file.read(os.path.join(folder, f))
+                                  for f in sorted(os.listdir(folder)) if f.endswith(".json")]
+  return {k: v for k, v in out.items() if v}
+
+
+def _mean(ps, *keys):
+  """Mean over probes of ps[i][keys[0]][keys[1]]...; None where one lacks it."""
+  vals = []
+  for p in ps:
+    for k in keys:
+      p = p.get(k) if isinstance(p, dict) else None
+    vals.append(p)
+  return None if any(v is None for v in vals) else float(np.mean(vals))
+
+
+# Another sampler counts as capping Hi's field when it adds this much to it;
+# samplers within TIE_DB of each other count as equal.
+SAMPLER_DB, TIE_DB = 0.1, 0.05
+OTHER_SAMPLERS = {"own_twice_samples": "twice its own samples",
+                  "baseline_sampler": f"{BASELINE}'s sampler",
+                  "twice_baseline_samples": f"{BASELINE}'s sampler at twice its samples"}
+
+
+def probe_reading(ps, gain_on_lo=None) -> str:
+  """The probes' verdict: whether Hi's field or its sampler sets the margin,
+  and whether Hi gains on Lo (`gain_on_lo`: Hi − Lo from the records)."""
+  own = _mean(ps, "psnr", "own")
+  gap = _mean(ps, "psnr", "twice_baseline_samples") - _mean(ps, "psnr",
+                                                            f"{BASELINE}_twice_samples")
+  top = max(_mean(ps, "psnr", k) for k in OTHER_SAMPLERS)
+  # the first (the cheapest) of the other samplers within a rounding of the best
+  best = next(k for k in OTHER_SAMPLERS if _mean(ps, "psnr", k) >= top - TIE_DB)
+  gain = _mean(ps, "psnr", best) - own
+  text = (f"at equal dense sampling Hi's field is {'ahead of' if gap >= 0 else 'behind'} "
+          f"{BASELINE}'s ({gap:+.2f} dB)")
+  if gain >= SAMPLER_DB:
+    text += (f"; Hi's own sampler costs it {gain:.2f} dB more ({OTHER_SAMPLERS[best]} "
+             "recovers it)")
+  elif gap < 0:
+    text += ": the margin is lost in training, not in the sampler"
+  if gain_on_lo is not None:
+    text += (f"; Hi {'gains' if gain_on_lo > 0 else 'loses'} {abs(gain_on_lo):.2f} dB on "
+             "halo's own Lo-NeRF")
+  return f"Reading: {text}."
+
+
+def probe_sentences(ps) -> list:
+  """What the probes of one scene and budget measured, in words."""
+  own, own2 = _mean(ps, "psnr", "own"), _mean(ps, "psnr", "own_twice_samples")
+  field2, base2 = (_mean(ps, "psnr", "twice_baseline_samples"),
+                   _mean(ps, "psnr", f"{BASELINE}_twice_samples"))
+  lines = [f"Twice the samples at evaluation: Hi {own2 - own:+.2f} dB with its own sampler, "
+           f"{BASELINE} {base2 - _mean(ps, 'psnr', BASELINE):+.2f} dB. With {BASELINE}'s "
+           f"sampler at twice its samples, Hi's field is {field2 - base2:+.2f} dB from "
+           f"{BASELINE}'s."]
+  if _mean(ps, "guide", "window") is not None:
+    lines.append(
+        f"The ray field's window spans {100 * _mean(ps, 'guide', 'mean_window_share'):.0f}% "
+        f"of [near, far] ({ps[0]['guide']['num_samples']} samples) and holds Hi's surface on "
+        f"{100 * _mean(ps, 'guide', 'hi_surface_in_window'):.1f}% of the opaque rays; the "
+        "rays it misses carry "
+        f"{100 * _mean(ps, 'guide', 'error_share_where_window_misses'):.1f}% of Hi's squared "
+        f"error. Its depth is {100 * _mean(ps, 'guide', 'median_to_hi_surface'):.1f}% of the "
+        "range from Hi's surface (median); Hi's and nerf_tuned's surfaces are "
+        f"{100 * _mean(ps, 'guide', 'median_hi_to_baseline_surface'):.1f}% apart.")
+  if _mean(ps, "empty_share", "first") is not None:
+    lines.append(f"L_empty is {100 * _mean(ps, 'empty_share', 'first'):.2f}% of Hi's loss over "
+                 f"its first quarter and {100 * _mean(ps, 'empty_share', 'last'):.2f}% over "
+                 "its last.")
+  if _mean(ps, "background_acc", METHOD) is not None:
+    lo = _mean(ps, "background_acc", "lo")
+    lines.append(f"Opacity on the background pixels: halo "
+                 f"{_mean(ps, 'background_acc', METHOD):.4f}, {BASELINE} "
+                 f"{_mean(ps, 'background_acc', BASELINE):.4f}" + (
+                     "" if lo is None else f", halo's Lo-NeRF {lo:.4f}, which sees "
+                     f"{100 * _mean(ps, 'background_acc', 'lo_sees_empty'):.0f}% of them "
+                     "empty (where L_empty can act)") + ".")
+  return lines
+
+
+def probe_section(by_key, by_budget, hi_minus_lo, lead) -> list:
+  """The page's section on the probes: where HALO trails at the largest
+  budget and why, a table of re-rendered PSNRs and, per scene and budget,
+  what they say (by_budget: study()'s records, for the leads and Hi − Lo)."""
+  if not by_key:
+    return []
+  reading = {k: probe_reading(ps, hi_minus_lo(by_budget.get(k[0], {}).get(k[1], {})))
+             for k, ps in by_key.items()}
+  top = max(by_budget)
+  behind = [(s, lead(by_budget[top].get(s, {}))) for s in suites.BUDGET_SCENES]
+  behind = [(s, x) for s, x in behind if x is not None and x < 0]
+  cols = ("own", "own_twice_samples", "baseline_sampler", "twice_baseline_samples", BASELINE,
+          f"{BASELINE}_twice_samples")
+  out = ["## What sets the margin", "",
+         "`python -m halo_jax.bench.budget_probe --suite=SUITE --scratch=DIR` re-renders a "
+         "finished pair of runs (halo and nerf_tuned, one scene and seed) on the same "
+         "validation views: Hi-NeRF's trained field with its own sampler (as scored), with "
+         "twice its samples, with nerf_tuned's stratified sampler and with twice that; "
+         "nerf_tuned as scored and with twice its samples. It also measures the ray field's "
+         "window against each field's surface (the depth of the largest weight, on the rays "
+         "both see as opaque), L_empty's share of Hi's loss, and the opacity on background "
+         "pixels. Mean over the probed seeds (in brackets).", "",
+         *(f"- At {top:g} s HALO trails on {s} ({x:+.2f} dB). " + (
+             reading[(top, s)] if (top, s) in reading else "Not probed.")
+           for s, x in behind), *([""] if behind else []),
+         "| budget | scene | Hi as scored | Hi, 2× its samples | Hi, nerf_tuned's sampler | "
+         "Hi, 2× that | nerf_tuned | nerf_tuned, 2× |", "|---|---|---|---|---|---|---|---|"]
+  in_order = sorted(by_key.items(), key=lambda kv: (suites.BUDGET_SCENES.index(kv[0][1]),
+                                                    kv[0][0]))
+  for (b, scene), ps in in_order:
+    out.append(f"| {b:g} s | {scene} ({len(ps)}) | " + " | ".join(
+        "-" if _mean(ps, "psnr", c) is None else f"{_mean(ps, 'psnr', c):.2f}" for c in cols)
+        + " |")
+  out.append("")
+  strides = sorted({p.get("pixel_stride") for ps in by_key.values() for p in ps} - {None})
+  out += ["PSNRs on a regular grid of the views' pixels (a stride of "
+          f"{', '.join(map(str, strides))} pixels in each direction, by scene), not on every "
+          "pixel: small differences are the grid's as much as the samplers'.", ""]
+  for (b, scene), ps in in_order:
+    out += [f"- **{scene} at {b:g} s.** {reading[(b, scene)]} " + " ".join(probe_sentences(ps))]
+  return out + [""] + one_at_a_time_lines(in_order)
+
+
+def one_at_a_time_lines(in_order) -> list:
+  """The probes' differences that change one thing (budget_probe.one_at_a_time),
+  mean over seeds; older probe files, without them, are named."""
+  rows, old = [], []
+  for (b, scene), ps in in_order:
+    found = [p["one_at_a_time"] for p in ps if "one_at_a_time" in p]
+    if not found:
+      old.append(f"{scene} at {b:g} s")
+      continue
+    for i, c in enumerate(found[0]):
+      what = (f"{c['kind']}: {c['from']} -> {c['to']} (twice the samples)"
+              if c["change"] == "count" else
+              f"{c['samples']} samples: {c['from']} -> {c['to']} (the window)")
+      delta = np.mean([f[i]["delta_db"] for f in found])
+      rows.append(f"| {b:g} s | {scene} ({len(found)}) | {c['field']} | {what} | {delta:+.2f} |")
+  out = ["### One thing at a time", ""]
+  if rows:
+    out += ["| budget | scene | field | change | dB |", "|---|---|---|---|---|", *rows, ""]
+  if old:
+    out += ["Probe files made before the probe compared one thing at a time (their "
+            "\"nerf_tuned's sampler\" column changes both the kind and the count): "
+            + "; ".join(old) + ". They are read above as they stand until rerun.", ""]
+  return out
