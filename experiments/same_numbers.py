@@ -248,7 +248,8 @@ def main(argv):
     if lines:
       sys.exit(1)
   if FLAGS.record:
-    print(code_version.record(state["commit"], results, FLAGS.views))
+    print(code_version.record(state["commit"], results, FLAGS.views,
+                              digests=code_version.step_table_digests()))
 
 
 if __name__ == "__main__":

@@ -76,3 +76,42 @@ def test_a_code_tree_changes_exactly_when_the_training_code_does():
   if untouched:
     c = untouched[0]
     assert provenance.code_tree(c) == provenance.code_tree(f"{c}~1")
+
+
+def test_a_change_to_the_committed_step_table_is_reported(tmp_path):
+  """The fingerprint run writes its own table, so the companion digest is what
+  sees the committed one: a changed entry changes its method's digest only,
+  and the report names that method."""
+  import json
+  from halo_jax import step_table
+  with open(step_table.TABLE) as f:
+    table = json.load(f)
+  before = code_version.step_table_digests(step_table.TABLE)
+  key = next(k for k in sorted(table["entries"]) if k.startswith("nerf_tuned|"))
+  table["entries"][key]["step_s"] *= 1.5
+  changed = str(tmp_path / "steps.json")
+  with open(changed, "w") as f:
+    json.dump(table, f)
+  after = code_version.step_table_digests(changed)
+  assert {m for m in before if before[m] != after[m]} == {"nerf_tuned"}
+  fingerprints = {"t": {"definition": code_version.DEFINITION, "commit_time": "1",
+                        "methods": {}, "step_table": before}}
+  assert code_version.step_table_changes(fingerprints, now=after) == ["nerf_tuned"]
+  assert code_version.step_table_changes(fingerprints, now=before) == []
+
+
+def test_trees_measured_equal_on_one_machine_are_one_code_across_machines():
+  """Old code measured on machine A and again on machine B, beside new code
+  measured on B: the last bits follow the machine, so the new code is the
+  old one's where B measured them equal, and keeps the old one's name."""
+  table = {
+      "old": {"commit_time": "1", "machine": "A", "methods": {"halo": "a1", "nerf_tuned": "n1"},
+              "machines": {"B": {"methods": {"halo": "b1", "nerf_tuned": "m1"}}}},
+      "new": {"commit_time": "2", "machine": "B", "methods": {"halo": "b1", "nerf_tuned": "m2"}},
+  }
+  assert code_version.classes("halo", table) == {"old": "a1", "new": "a1"}
+  assert code_version.classes("nerf_tuned", table) == {"old": "n1", "new": "m2"}
+  assert code_version.current("halo", table) == "a1"
+  rec = lambda tree: {"method": "halo", "provenance": {"git": {"code_tree": tree}}}  # noqa: E731
+  assert code_version.of_record(rec("old"), table) == code_version.of_record(rec("new"), table)
+  assert code_version.of_record(rec("other"), table) == code_version.UNMEASURED

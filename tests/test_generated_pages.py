@@ -133,3 +133,27 @@ def test_the_readme_main_job_table(tmp_path):
   readme = _read(os.path.join(REPO, "README.md"))
   assert "\n".join(rows) in readme, "README's main-job table: paste it from " \
       "`halo-compare --config=configs/default.py --workdir=DIR` (DIR/results.md)"
+
+
+def test_every_typed_gpu_figure_is_a_dated_record_of_a_named_commit():
+  """docs/gpu.md types figures that no generator writes (runs made before
+  result files, or on jax versions other than the pinned ones): each section
+  that holds a PSNR says it is a dated record and names the commit and the
+  versions it was made with, and the commit is one git knows."""
+  import re
+  _full_history()
+  text = _read(os.path.join(REPO, "docs", "gpu.md"))
+  sections = re.split(r"\n(?=### )", text)
+  checked = 0
+  for section in sections:
+    if not section.startswith("### ") or not re.search(r"\b\d\d\.\d\d\b", section):
+      continue
+    title = section.splitlines()[0]
+    assert "dated record" in section, f"docs/gpu.md {title!r}: figures without 'dated record'"
+    assert re.search(r"\bjax \d+\.\d+\.\d+", section), f"{title!r}: no jax version"
+    commits = re.findall(r"\b[0-9a-f]{7}\b", section)
+    assert commits, f"docs/gpu.md {title!r}: no commit named"
+    for c in commits:
+      subprocess.run(["git", "-C", REPO, "cat-file", "-e", f"{c}^{{commit}}"], check=True)
+    checked += 1
+  assert checked >= 3

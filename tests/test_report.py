@@ -60,6 +60,18 @@ def test_tables_and_readme_block(tmp_path):
   line = report.headline(report.load(root)[("cpu", "budget")])
   assert ("+0.75 dB on average (each scene weighs the same), ahead on 1 of 2; behind or level "
           "on s2 (-0.50).") in line
+  assert "No run of either method collapsed." in line
+  # a collapsed baseline run is named, and the mean is given without its scene
+  r = _record(10.0, [[1, 10.0]])
+  r["heldout_learned"] = {"hi": "collapsed"}
+  _write(root, "nerf_tuned", 0, r, scene="s3")
+  _write(root, "halo", 0, _record(20.0, [[1, 20.0]]), scene="s3")
+  line = report.headline(report.load(root)[("cpu", "budget")])
+  assert "+3.83 dB on average" in line
+  assert ("The mean pools scenes where a run collapsed: s3 (nerf_tuned); without them, "
+          "+0.75 dB over the other 2, ahead on 1 of them.") in line
+  table = suite_tables.over_scenes_table(report.load(root)[("cpu", "budget")])
+  assert "| halo | 3 | 21.17 | +3.83 | 2 of 3 | +0.75 (s3) |" in table
 
 
 def test_a_suite_pools_one_fingerprint_per_method_and_lists_the_rest(tmp_path, monkeypatch):
@@ -329,7 +341,8 @@ def test_budget_study_reads_the_lead_and_where_the_baseline_stops_improving(tmp_
   assert "moves -0.50 dB by 360 s, while its training PSNR moves +2.00 dB" in page
   assert (tmp_path / "budget_study_lego_8view.png").exists()
   assert "+1.00 dB at 60, +0.50 dB at 240, -0.10 dB at 960 reference seconds" in line
-  assert line.endswith("HALO leads at 60 s and 240 s only on lego_8view (+1.00 to -0.10 dB).")
+  assert line.endswith("HALO leads at 60 s and 240 s only on lego_8view (+1.00 to -0.10 dB)."
+                       " No run of either method collapsed.")
 
 
 def test_budget_study_says_what_its_probes_measured(tmp_path, monkeypatch):

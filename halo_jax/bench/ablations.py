@@ -338,8 +338,9 @@ def _fingerprint_lines(study: Study, recs) -> list:
 
 
 def define_flags():
-  """This script's own flags; --only, --results, --scratch and --dry_run are
-  experiments/benchmark.py's (imported above), with the same meaning."""
+  """This script's flags; --only, --results, --scratch and --dry_run are the
+  runner's (benchmark.define_flags), with the same meaning."""
+  benchmark.define_flags()
   flags.DEFINE_enum("study", "fog", sorted(STUDIES), "Study to run.")
   flags.DEFINE_string("docs", os.path.join(REPO, "docs", "results"), "Report folder.")
   flags.DEFINE_integer("core", -1, "Pin to this one core (-1: the machine's last).")

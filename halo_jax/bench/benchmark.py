@@ -34,22 +34,28 @@ from halo_jax.configure import load as method_config, set_field
 from halo_jax.stages import collapse
 
 FLAGS = flags.FLAGS
-flags.DEFINE_enum("suite", "cpu", sorted(suites.SUITES), "Suite to run.")
-flags.DEFINE_enum("mode", "budget", ["budget", "steps"],
-                  "Equal reference seconds (protocol 'budget') or equal steps.")
-flags.DEFINE_string("results", os.path.join(REPO, "results"), "Result files' root.")
-flags.DEFINE_string("scratch", "/tmp/halo_bench", "Workdirs (checkpoints, renders).")
-flags.DEFINE_string("only", "", "Run only runs whose 'scene/method/seed<k>' matches this regex.")
-flags.DEFINE_integer("max_runs", 0, "Stop after this many runs (0: all).")
-flags.DEFINE_bool("dry_run", False, "Print the plan and each run's state; train nothing.")
-flags.DEFINE_bool("score_validation", False, "Train nothing: add the validation scores to "
-                  "finished runs' files that lack them, from their workdirs in --scratch.")
-flags.DEFINE_bool("judge_heldout", False, "Train nothing: add the held-out verdict (a stage "
-                  "no better than a constant image) to finished runs' files that lack it.")
-flags.DEFINE_bool("add_fronts", False, "Rerun finished runs whose file has no front although "
-                  "the suite records one (files from before fronts); the new file replaces it.")
-flags.DEFINE_integer("first_core", -1, "With a suite pinned to k cores: the first of them "
-                     "(-1: the machine's last k), e.g. to run two suites side by side.")
+
+
+def define_flags():
+  """The runner's flags (ablations and step_times reuse --results, --scratch,
+  --only and --dry_run): defined by the entry point, not on import, so that a
+  module that only configures runs (code_version) adds no flags."""
+  flags.DEFINE_enum("suite", "cpu", sorted(suites.SUITES), "Suite to run.")
+  flags.DEFINE_enum("mode", "budget", ["budget", "steps"],
+                    "Equal reference seconds (protocol 'budget') or equal steps.")
+  flags.DEFINE_string("results", os.path.join(REPO, "results"), "Result files' root.")
+  flags.DEFINE_string("scratch", "/tmp/halo_bench", "Workdirs (checkpoints, renders).")
+  flags.DEFINE_string("only", "", "Run only runs whose 'scene/method/seed<k>' matches this regex.")
+  flags.DEFINE_integer("max_runs", 0, "Stop after this many runs (0: all).")
+  flags.DEFINE_bool("dry_run", False, "Print the plan and each run's state; train nothing.")
+  flags.DEFINE_bool("score_validation", False, "Train nothing: add the validation scores to "
+                    "finished runs' files that lack them, from their workdirs in --scratch.")
+  flags.DEFINE_bool("judge_heldout", False, "Train nothing: add the held-out verdict (a stage "
+                    "no better than a constant image) to finished runs' files that lack it.")
+  flags.DEFINE_bool("add_fronts", False, "Rerun finished runs whose file has no front although "
+                    "the suite records one (files from before fronts); the new file replaces it.")
+  flags.DEFINE_integer("first_core", -1, "With a suite pinned to k cores: the first of them "
+                       "(-1: the machine's last k), e.g. to run two suites side by side.")
 
 
 def data_root() -> str:
@@ -260,6 +266,7 @@ def main(argv):
 
 def cli():
   """The console script's entry point."""
+  define_flags()
   tool.run(sys.modules[__name__], main)
 
 

@@ -19,7 +19,7 @@ import matplotlib.pyplot as plt  # pylint: disable=g-import-not-at-top
 import numpy as np  # pylint: disable=g-import-not-at-top
 
 from halo_jax.bench import probe_report, suites  # pylint: disable=g-import-not-at-top
-from halo_jax.bench.report_common import BASELINE, stat  # pylint: disable=g-import-not-at-top
+from halo_jax.bench.report_common import BASELINE, collapsed_methods, stat  # pylint: disable=g-import-not-at-top
 from halo_jax.bench.suite_tables import scene_kind  # pylint: disable=g-import-not-at-top
 
 METHOD = "halo"
@@ -206,7 +206,27 @@ def readme_sentence(by_budget) -> str:
   figures = ", ".join(f"{means[b]:+.2f} dB at {b:g}" for b in sorted(means))
   return (f"[Budget study](docs/results/{PAGE}.md), validation views, {len(scenes)} scenes: "
           f"halo − nerf_tuned {figures} reference seconds on average; HALO leads "
-          f"{where_halo_leads(by_budget, scenes)}.")
+          f"{where_halo_leads(by_budget, scenes)}." + without_collapsed(by_budget, scenes))
+
+
+def without_collapsed(by_budget, scenes) -> str:
+  """The sentence naming the scenes where a run of either method collapsed
+  at some budget, with the means over the other scenes."""
+  gone = {}
+  for b in sorted(by_budget):
+    for s in scenes:
+      for m in collapsed_methods(by_budget[b][s], (METHOD, BASELINE)):
+        gone.setdefault(s, []).append(f"{m} at {b:g} s")
+  if not gone:
+    return " No run of either method collapsed."
+  named = "; ".join(f"{s} ({', '.join(w)})" for s, w in sorted(gone.items()))
+  kept = [s for s in scenes if s not in gone]
+  if not kept:
+    return f" Runs collapsed on every scene: {named}."
+  figures = ", ".join(f"{np.mean([lead(by_budget[b][s]) for s in kept]):+.2f} dB at {b:g}"
+                      for b in sorted(by_budget))
+  return (f" The means pool scenes where a run collapsed: {named}; without them "
+          f"({len(kept)} scenes), {figures} reference seconds.")
 
 
 def write(all_suites, docs, results="") -> str:

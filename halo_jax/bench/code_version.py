@@ -40,6 +40,7 @@ FILE = os.path.join(REPO, "results", "fingerprints.json")
 # The fingerprint run's definition that entries are measured with now.
 DEFINITION = "run-2"
 
+UNRECORDED = "unrecorded"   # the machine of an entry measured before entries named it
 UNMEASURED = "unmeasured"   # the record's tree has no fingerprint for its method
 MODIFIED = "modified tree"  # the run's training code was not a commit's
 
@@ -60,25 +61,81 @@ def of_runs(runs: dict, method: str):
   return hashlib.sha256(json.dumps(mine, sort_keys=True).encode()).hexdigest()[:12]
 
 
-def record(commit: str, runs: dict, views: int, path: str = FILE) -> str:
+def machine() -> str:
+  """What XLA's CPU code depends on beside the versions: the CPU's model and
+  widest vector extension. The same code and versions compute other last
+  bits on another CPU (measured: every method's fingerprint at 9aa1915 moved
+  between two sessions' machines with nothing else changed)."""
+  info = {}
+  try:
+    with open("/proc/cpuinfo") as f:
+      for line in f:
+        k, _, v = line.partition(":")
+        info.setdefault(k.strip(), v.strip())
+  except OSError:
+    return "unknown"
+  flags = set(info.get("flags", "").split())
+  isa = next((x for x in ("avx512f", "avx2", "avx", "sse4_2") if x in flags), "base")
+  return (f"{info.get('model name', '?')} (family {info.get('cpu family', '?')}, "
+          f"model {info.get('model', '?')}, {isa})")
+
+
+def record(commit: str, runs: dict, views: int, path: str = FILE, digests=None) -> str:
   """Stores the fingerprints of every method in `runs` (same_numbers' figures
-  at `commit`) under the commit's code tree; returns a line saying so. An
-  entry of an earlier definition is replaced, not added to."""
+  at `commit`, on this machine) under the commit's code tree; returns a line
+  saying so. An entry of an earlier definition is replaced, not added to; a
+  measurement on another machine than the entry's goes beside it, under
+  "machines". digests: step_table_digests() of the commit's table (None: not
+  recorded, for an older commit's)."""
   tree = provenance.code_tree(commit)
   table = load(path)
   methods = sorted({k.rsplit("/", 1)[-1] for k in runs})
+  mine = machine()
   if table.get(tree, {}).get("definition") != DEFINITION:
-    table[tree] = {"commit": commit, "definition": DEFINITION, "methods": {}}
+    table[tree] = {"commit": commit, "definition": DEFINITION, "methods": {}, "machine": mine}
   entry = table[tree]
-  entry["methods"].update({m: of_runs(runs, m) for m in methods})
-  entry.update(commit_time=commit_time(commit),
-               scenes=sorted({k.rsplit("/", 1)[0] for k in runs}), views=views,
-               versions=provenance.collect(measure_peak=False)["versions"],
+  where = (entry if entry.get("machine", UNRECORDED) == mine
+           else entry.setdefault("machines", {}).setdefault(mine, {"methods": {}}))
+  where["methods"].update({m: of_runs(runs, m) for m in methods})
+  where.update(versions=provenance.collect(measure_peak=False)["versions"],
                time_utc=time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()))
+  if digests is not None:
+    entry["step_table"] = digests
+  entry.update(commit_time=commit_time(commit),
+               scenes=sorted({k.rsplit("/", 1)[0] for k in runs}), views=views)
   with open(path, "w") as f:
     json.dump(table, f, indent=1, sort_keys=True)
     f.write("\n")
   return f"recorded {len(methods)} fingerprints for code tree {tree} ({commit[:7]}) in {path}"
+
+
+def step_table_digests(path: str = "") -> dict:
+  """{method: 12 hex digits of the committed step table's entries (step and
+  set-up seconds) for every key the suites use for the method}: the
+  fingerprint run writes its own table, so this companion is what sees a
+  change of the committed one (a changed entry moves a suite's step counts)."""
+  from halo_jax import step_table  # pylint: disable=import-outside-toplevel
+  from halo_jax.bench import benchmark, step_times  # pylint: disable=import-outside-toplevel
+  entries = step_table.load(path)
+  keys = {}
+  for suite, scene, method in step_times.pairs():
+    c = benchmark.configure(suite, scene, method, 0, "budget", "/tmp/halo_step_table_digest")
+    keys.setdefault(method, set()).update(step_times.keys_of(c).values())
+  return {m: hashlib.sha256(json.dumps(
+      {k: [entries.get(k, {}).get("step_s"), entries.get(k, {}).get("setup_s")]
+       for k in sorted(ks)}, sort_keys=True).encode()).hexdigest()[:12]
+          for m, ks in sorted(keys.items())}
+
+
+def step_table_changes(table: dict, now: dict = None) -> list:
+  """The methods whose committed step-table entries differ from those the
+  newest fingerprint was measured with (now: step_table_digests(), computed
+  where not given); [] where they agree or the entry predates the check."""
+  measured = newest(table)[1].get("step_table")
+  if not measured:
+    return []
+  now = step_table_digests() if now is None else now
+  return sorted(m for m in set(measured) | set(now) if measured.get(m) != now.get(m))
 
 
 def modified(rec: dict) -> bool:
@@ -96,13 +153,55 @@ def tree_of(rec: dict):
                                   else None)
 
 
+def classes(method: str, table: dict) -> dict:
+  """{code tree: fingerprint} for `method`: trees whose code computes the
+  same numbers share one fingerprint. Two trees are the same code where one
+  machine measured them equal (and so on, transitively), since the last bits
+  follow the machine (`machine`). A class is named by the fingerprint of its
+  earliest commit as first measured, so that a page's names stay put when a
+  new machine measures old code."""
+  parent = {}
+
+  def find(t):
+    while parent[t] != t:
+      parent[t] = parent[parent[t]]
+      t = parent[t]
+    return t
+  groups = {}
+  for tree, entry in table.items():
+    fp = entry.get("methods", {}).get(method)
+    if fp:
+      parent[tree] = tree
+      groups.setdefault((entry.get("machine", UNRECORDED), fp), []).append(tree)
+    for mach, sub in entry.get("machines", {}).items():
+      fp = sub.get("methods", {}).get(method)
+      if fp:
+        parent[tree] = tree
+        groups.setdefault((mach, fp), []).append(tree)
+  for trees in groups.values():
+    for t in trees[1:]:
+      parent[find(t)] = find(trees[0])
+  members = {}
+  for t in parent:
+    members.setdefault(find(t), []).append(t)
+  out = {}
+  for trees in members.values():
+    first = min(trees, key=lambda t: (table[t].get("commit_time", ""), t))
+    entry = table[first]
+    name = entry.get("methods", {}).get(method) or next(
+        sub["methods"][method] for sub in entry.get("machines", {}).values()
+        if method in sub.get("methods", {}))
+    out.update({t: name for t in trees})
+  return out
+
+
 def of_record(rec: dict, table: dict) -> str:
-  """The record's fingerprint for its method, or MODIFIED / UNMEASURED."""
+  """The record's fingerprint for its method (its code tree's class:
+  `classes`), or MODIFIED / UNMEASURED."""
   if modified(rec):
     return MODIFIED
   tree = tree_of(rec)
-  return ((table.get(tree) or {}).get("methods", {}).get(rec.get("method")) if tree else None
-          ) or UNMEASURED
+  return (classes(rec.get("method"), table).get(tree) if tree else None) or UNMEASURED
 
 
 def newest(table: dict):
@@ -118,9 +217,9 @@ def newest(table: dict):
 
 
 def current(method: str, table: dict):
-  """The fingerprint of `method` at the newest measured commit (None where
-  that measurement has no run of the method)."""
-  return newest(table)[1].get("methods", {}).get(method)
+  """The fingerprint (class: `classes`) of `method` at the newest measured
+  commit (None where that measurement has no run of the method)."""
+  return classes(method, table).get(newest(table)[0])
 
 
 def commit_time(commit: str) -> str:

@@ -21,6 +21,7 @@ headline where a suite has them) are halo_jax/bench/fronts_report.py's. Nothing
 here is typed by hand.
 """
 import collections
+import functools
 import glob
 import json
 import os
@@ -32,7 +33,8 @@ import numpy as np
 
 from halo_jax.bench import budget_report, code_version, fronts_report, report_common, tool
 from halo_jax.bench.paths import REPO
-from halo_jax.bench.report_common import BASELINE, METHOD_ORDER, in_method_order, stat
+from halo_jax.bench.report_common import (BASELINE, METHOD_ORDER, collapsed_methods,
+                                          in_method_order, stat)
 from halo_jax.bench.suite_tables import (FAILURE_DROP_DB, claims, over_scenes_table,
                                          plot_scene, provenance_lines, scene_kind,
                                          scene_table, stage_table, summary_table,
@@ -82,8 +84,14 @@ def pool(scenes, table):
                    "steps_per_s": float(np.median(rates)) if rates else None,
                    "current": fp is not None and fp == code_version.current(m, table),
                    "newest": (code_version.newest(table)[1].get("commit") or "?")[:7],
-                   "aside": [(s, r, why(r)) for s, r in tagged if any(r is a for a in aside)]}
+                   "aside": [(s, r, why(r)) for s, r in tagged if any(r is a for a in aside)],
+                   "step_table_changed": m in _step_table_changes(json.dumps(table))}
   return dict(pooled), versions
+
+
+@functools.lru_cache(maxsize=4)
+def _step_table_changes(table_json: str) -> tuple:
+  return tuple(code_version.step_table_changes(json.loads(table_json)))
 
 
 def final_steps_per_s(rec):
@@ -244,8 +252,23 @@ def headline(scenes, method="halo", versions=None) -> str:
           f"each): {np.mean(list(delta.values())):+.2f} dB on average (each scene weighs "
           f"the same), ahead on {sum(d > 0 for d in delta.values())} of {len(both)}"
           + (f"; behind or level on {behind}." if behind else ".")
-          + f" Per scene kind (scenes): {per_kind}."
+          + f" Per scene kind (scenes): {per_kind}." + _without_collapsed(scenes, delta, method)
           + (" " + _fingerprint_note(versions, (method, BASELINE)) if versions else ""))
+
+
+def _without_collapsed(scenes, delta, method) -> str:
+  """The sentence naming the scenes where a run of `method` or the baseline
+  collapsed (a stage's verdict, training or held-out), with the mean over the
+  other scenes: a pooled mean never silently includes a collapsed run."""
+  gone = {s: collapsed_methods(scenes[s], (method, BASELINE)) for s in delta}
+  gone = {s: ms for s, ms in gone.items() if ms}
+  if not gone:
+    return " No run of either method collapsed."
+  named = ", ".join(f"{s} ({' and '.join(ms)})" for s, ms in sorted(gone.items()))
+  kept = [d for s, d in delta.items() if s not in gone]
+  rest = (f"{np.mean(kept):+.2f} dB over the other {len(kept)}, ahead on "
+          f"{sum(d > 0 for d in kept)} of them" if kept else "no scene is left")
+  return (f" The mean pools scenes where a run collapsed: {named}; without them, {rest}.")
 
 
 def _fingerprint_note(versions, methods) -> str:
@@ -255,7 +278,10 @@ def _fingerprint_note(versions, methods) -> str:
     same = "the same" if v["current"] else "otherwise"
     parts.append(f"{m} {v['fingerprint']} ({v['runs']} runs"
                  f"{', ' + str(len(v['aside'])) + ' set aside' if v['aside'] else ''}; the newest "
-                 f"measured code, {v['newest']}, computes {same})")
+                 f"measured code, {v['newest']}, computes {same}"
+                 + ("; **the committed step table's entries for it changed since that "
+                    "measurement: rerun `same_numbers.py --record`**"
+                    if v.get("step_table_changed") else "") + ")")
   return "Code fingerprints: " + "; ".join(parts) + "."
 
 

@@ -28,6 +28,22 @@ def mean_pm(v, digits=2):
   return f"{v.mean():.{digits}f} ± {v.std(ddof=1):.{digits}f}"
 
 
+def collapsed_stages(record) -> list:
+  """The stages of a run's record whose verdict (training fit or held-out
+  render; halo_jax/stages/collapse.py) is collapsed."""
+  out = [n for n, v in (record.get("learned") or {}).items() if v == collapse.COLLAPSED]
+  if "collapsed" in record:
+    out.append(record["collapsed"]["stage"])
+  out += [n for n, v in (record.get("heldout_learned") or {}).items() if v == collapse.COLLAPSED]
+  return sorted(set(out))
+
+
+def collapsed_methods(by_method, methods) -> list:
+  """Which of `methods` have a run of {method: [record, ...]} (one scene)
+  with a collapsed stage."""
+  return [m for m in methods if any(collapsed_stages(r) for r in by_method.get(m, []))]
+
+
 def collapse_lines(tagged_records):
   """Markdown lines counting the collapse check's verdicts
   (halo_jax/stages/collapse.py) over [(tag, record)]: how many runs learned,
@@ -42,8 +58,9 @@ def collapse_lines(tagged_records):
           for n, v in (r.get("heldout_learned") or {}).items() if v == collapse.COLLAPSED]
   lines = [f"Collapse check (each stage's training fit against the best constant "
            f"prediction's; halo_jax/stages/collapse.py): {learned} run(s) learned, "
-           f"**{len(collapsed)} collapsed**, {other} without a verdict (recorded before the "
-           "check existed, or too short past the crop to judge)."
+           f"**{len(collapsed)} collapsed**, {other} without a verdict (recorded before "
+           "today's rule, whose words `experiments/rejudge.py` moved to `learned_older_rule`, "
+           "or too short past the crop to judge)."
            + (f" **{len(flat)} stage(s) no better than a constant image on held-out views.**"
               if flat else "")]
   for tag, c in collapsed:

@@ -40,18 +40,6 @@ from halo_jax import pipeline, progress, protocol, provenance, step_table
 from halo_jax.bench import benchmark, selection, studies, suites, tool
 
 FLAGS = flags.FLAGS
-flags.DEFINE_string("table", step_table.TABLE, "The table to write.")
-flags.DEFINE_integer("core", -1, "The core the runs are pinned to (-1: the machine's last).")
-flags.DEFINE_bool("remeasure", False, "Measure keys the table already has too.")
-# --scratch (workdirs of the measuring runs), --only ('scene/method' regex)
-# and --dry_run (list the keys and whether the table has them) are the
-# benchmark's flags.
-flags.DEFINE_integer("lo_steps", 80, "Steps a radiance stage is timed for.")
-flags.DEFINE_integer("ray_steps", 300, "Steps the ray field is timed for.")
-flags.DEFINE_bool("from_records", False, "Write the table from the CPU suite's result files "
-                  "(seeds 0 and 1) and measure nothing.")
-flags.DEFINE_string("anchor", "spheres/nerf_tuned", "The (scene/method) measured beside new "
-                    "keys to put them in the table's reference seconds.")
 RECORD_SEEDS = (0, 1)
 
 # Suites whose keys the table covers, with the suite whose terms configure them.
@@ -245,7 +233,24 @@ def _machine_line(m: dict) -> str:
           f"{m['time_utc']}, commit {str(m['commit'])[:12]}")
 
 
+def define_flags():
+  """This tool's flags, beside the runner's (--scratch: the measuring runs'
+  workdirs, --only: a 'scene/method' regex, --dry_run: list the keys and
+  whether the table has them)."""
+  benchmark.define_flags()
+  flags.DEFINE_string("table", step_table.TABLE, "The table to write.")
+  flags.DEFINE_integer("core", -1, "The core the runs are pinned to (-1: the machine's last).")
+  flags.DEFINE_bool("remeasure", False, "Measure keys the table already has too.")
+  flags.DEFINE_integer("lo_steps", 80, "Steps a radiance stage is timed for.")
+  flags.DEFINE_integer("ray_steps", 300, "Steps the ray field is timed for.")
+  flags.DEFINE_bool("from_records", False, "Write the table from the CPU suite's result files "
+                    "(seeds 0 and 1) and measure nothing.")
+  flags.DEFINE_string("anchor", "spheres/nerf_tuned", "The (scene/method) measured beside new "
+                      "keys to put them in the table's reference seconds.")
+
+
 def cli():
+  define_flags()
   tool.run(sys.modules[__name__], main)
 
 

@@ -13,7 +13,7 @@ import numpy as np  # pylint: disable=g-import-not-at-top
 
 from halo_jax import runs  # pylint: disable=g-import-not-at-top
 from halo_jax.bench.report_common import (  # pylint: disable=g-import-not-at-top
-    BASELINE, in_method_order, mean_pm, stat)
+    BASELINE, collapsed_methods, in_method_order, mean_pm, stat)
 
 
 def curve_on_grid(records, grid):
@@ -94,10 +94,13 @@ def complete_scenes(scenes):
 
 def over_scenes_table(scenes):
   """Per method: the mean over scenes of its mean PSNR, over the scenes where
-  it and nerf_tuned both ran, and on how many of them it beats nerf_tuned."""
+  it and nerf_tuned both ran, and on how many of them it beats nerf_tuned;
+  then the same mean Δ without the scenes where a run of either collapsed
+  (named), so that no pooled mean silently includes a collapsed run."""
   methods = in_method_order({m: 1 for by in scenes.values() for m in by})
-  lines = ["| method | scenes | mean PSNR | mean Δ vs nerf_tuned | scenes ahead of nerf_tuned |",
-           "|---|---|---|---|---|"]
+  lines = ["| method | scenes | mean PSNR | mean Δ vs nerf_tuned | scenes ahead of nerf_tuned "
+           "| mean Δ without collapsed runs (scenes left out) |",
+           "|---|---|---|---|---|---|"]
   for m in methods:
     both = [s for s, by in scenes.items() if m in by and BASELINE in by]
     if not both:
@@ -105,9 +108,14 @@ def over_scenes_table(scenes):
     ps = [np.mean([r["psnr"] for r in scenes[s][m]]) for s in both]
     ds = [p - np.mean([r["psnr"] for r in scenes[s][BASELINE]]) for p, s in zip(ps, both)]
     ahead = sum(d > 0 for d in ds)
+    gone = [s for s in both if collapsed_methods(scenes[s], (m, BASELINE))]
+    kept = [d for d, s in zip(ds, both) if s not in gone]
+    without = (("-" if not kept else f"{np.mean(kept):+.2f}")
+               + f" ({', '.join(gone) if gone else 'none'})")
     lines.append(f"| {m} | {len(both)} | {np.mean(ps):.2f} | "
                  f"{'-' if m == BASELINE else f'{np.mean(ds):+.2f}'} | "
-                 f"{'-' if m == BASELINE else f'{ahead} of {len(both)}'} |")
+                 f"{'-' if m == BASELINE else f'{ahead} of {len(both)}'} | "
+                 f"{'-' if m == BASELINE else without} |")
   return "\n".join(lines)
 
 
