@@ -115,3 +115,27 @@ def test_trees_measured_equal_on_one_machine_are_one_code_across_machines():
   rec = lambda tree: {"method": "halo", "provenance": {"git": {"code_tree": tree}}}  # noqa: E731
   assert code_version.of_record(rec("old"), table) == code_version.of_record(rec("new"), table)
   assert code_version.of_record(rec("other"), table) == code_version.UNMEASURED
+
+
+def test_a_change_to_one_kinds_recipe_leaves_the_other_kinds_current():
+  """Fingerprints are measured per scene kind: a new tree that moves llff's
+  numbers alone keeps blender's records current under their old name, and
+  names llff's class by its own fingerprint."""
+  figures = {"lego_8view/halo": {"psnr": [20.0]}, "fern_4view/halo": {"psnr": [18.0]}}
+  changed = dict(figures, **{"fern_4view/halo": {"psnr": [19.0]}})
+  kinds = lambda f: {"halo": code_version.kinds_of_runs(f, "halo")}  # noqa: E731
+  table = {
+      "old": {"commit_time": "1", "machine": "B", "kinds": kinds(figures),
+              "methods": {"halo": code_version.of_runs(figures, "halo")}},
+      "new": {"commit_time": "2", "machine": "B", "kinds": kinds(changed),
+              "methods": {"halo": code_version.of_runs(changed, "halo")}},
+  }
+  assert set(kinds(figures)["halo"]) == {"blender", "llff"}
+  old_name, new_name = table["old"]["methods"]["halo"], table["new"]["methods"]["halo"]
+  assert code_version.current("halo", table, "blender") == old_name
+  assert code_version.current("halo", table, "llff") == new_name
+  rec = lambda tree, config: {"method": "halo", "config": config,  # noqa: E731
+                              "provenance": {"git": {"code_tree": tree}}}
+  assert code_version.of_record(rec("old", "configs/blender.py:lego_8view_cpu"), table) == old_name
+  assert code_version.of_record(rec("old", "configs/llff.py:fern_4view_cpu"), table) == old_name
+  assert code_version.of_record(rec("new", "configs/llff.py:fern_4view_cpu"), table) == new_name

@@ -48,12 +48,12 @@ def _same_config(mine: dict, theirs: dict) -> bool:
           and all(k in base and base[k] == v for k, v in added.items()))
 
 
-def running_fingerprint(method: str, table: dict) -> str:
-  """The fingerprint of `method` for the code this process runs (its
-  checkout's code tree in `table`); code_version.MODIFIED or UNMEASURED
-  where it has none."""
-  return code_version.of_record({"method": method, "provenance": {"git": provenance.git_state()}},
-                                table)
+def running_fingerprint(method: str, table: dict, config: str = "") -> str:
+  """The fingerprint of `method` on the kind of scene `config` names, for the
+  code this process runs (its checkout's code tree in `table`);
+  code_version.MODIFIED or UNMEASURED where it has none."""
+  return code_version.of_record({"method": method, "config": config,
+                                 "provenance": {"git": provenance.git_state()}}, table)
 
 
 def identical_suite_run(c, scene, method, seed, results, table=None, mine_fp=None):
@@ -65,7 +65,7 @@ def identical_suite_run(c, scene, method, seed, results, table=None, mine_fp=Non
   checkout's in `table`, results/fingerprints.json), or that no measured
   fingerprint vouches for, is refused with a warning: its run is trained."""
   table = code_version.load() if table is None else table
-  mine_fp = running_fingerprint(method, table) if mine_fp is None else mine_fp
+  mine_fp = running_fingerprint(method, table, scene.config) if mine_fp is None else mine_fp
   mine = _comparable(json.loads(protocol.resolve(c).to_json_best_effort()))
   for name in sorted(suites.SUITES):
     path = benchmark.result_path(results, name, "budget", scene, method, seed)

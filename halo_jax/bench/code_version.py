@@ -52,13 +52,35 @@ def load(path: str = FILE) -> dict:
     return json.load(f)
 
 
-def of_runs(runs: dict, method: str):
+def kind_of(config: str) -> str:
+  """'configs/dnerf.py:hook_cpu' -> 'dnerf': a scene's kind is its config file,
+  and a fingerprint is measured per kind (one fingerprint scene each), so a
+  change of one kind's recipe leaves the other kinds' records current."""
+  return os.path.splitext(os.path.basename(config.split(":")[0]))[0] if config else ""
+
+
+def _scene_kinds() -> dict:
+  from halo_jax.bench import suites  # pylint: disable=import-outside-toplevel
+  return {s.name: kind_of(s.config) for s in suites.CPU.scenes}
+
+
+def of_runs(runs: dict, method: str, kind: str = ""):
   """The fingerprint of `method` in same_numbers' figures {"<scene>/<method>":
-  {...}}: 12 hex digits of a hash over its runs, or None where it has none."""
-  mine = {k: v for k, v in runs.items() if k.rsplit("/", 1)[-1] == method}
+  {...}} (of its runs on scenes of `kind` alone, where given): 12 hex digits
+  of a hash over its runs, or None where it has none."""
+  kinds = _scene_kinds() if kind else {}
+  mine = {k: v for k, v in runs.items() if k.rsplit("/", 1)[-1] == method
+          and (not kind or kinds.get(k.rsplit("/", 1)[0]) == kind)}
   if not mine:
     return None
   return hashlib.sha256(json.dumps(mine, sort_keys=True).encode()).hexdigest()[:12]
+
+
+def kinds_of_runs(runs: dict, method: str) -> dict:
+  """{kind: of_runs(runs, method, kind)} over the kinds `method` ran."""
+  kinds = _scene_kinds()
+  ran = {kinds.get(k.rsplit("/", 1)[0]) for k in runs if k.rsplit("/", 1)[-1] == method}
+  return {k: of_runs(runs, method, k) for k in sorted(x for x in ran if x)}
 
 
 def machine() -> str:
@@ -97,6 +119,7 @@ def record(commit: str, runs: dict, views: int, path: str = FILE, digests=None) 
   where = (entry if entry.get("machine", UNRECORDED) == mine
            else entry.setdefault("machines", {}).setdefault(mine, {"methods": {}}))
   where["methods"].update({m: of_runs(runs, m) for m in methods})
+  where.setdefault("kinds", {}).update({m: kinds_of_runs(runs, m) for m in methods})
   where.update(versions=provenance.collect(measure_peak=False)["versions"],
                time_utc=time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()))
   if digests is not None:
@@ -153,13 +176,22 @@ def tree_of(rec: dict):
                                   else None)
 
 
-def classes(method: str, table: dict) -> dict:
-  """{code tree: fingerprint} for `method`: trees whose code computes the
-  same numbers share one fingerprint. Two trees are the same code where one
-  machine measured them equal (and so on, transitively), since the last bits
+def _measurements(entry: dict):
+  """(machine, {method: fingerprint}, {method: {kind: fingerprint}}) of each
+  machine's measurement in a table entry."""
+  yield entry.get("machine", UNRECORDED), entry.get("methods", {}), entry.get("kinds", {})
+  for mach, sub in entry.get("machines", {}).items():
+    yield mach, sub.get("methods", {}), sub.get("kinds", {})
+
+
+def classes(method: str, table: dict, kind: str = "") -> dict:
+  """{code tree: fingerprint} for `method` (on scenes of `kind`, where
+  given): trees whose code computes the same numbers share one fingerprint.
+  Two trees are the same code where one machine measured them equal, over
+  every kind or over `kind` (and so on, transitively), since the last bits
   follow the machine (`machine`). A class is named by the fingerprint of its
   earliest commit as first measured, so that a page's names stay put when a
-  new machine measures old code."""
+  new machine measures old code or another kind's recipe changes."""
   parent = {}
 
   def find(t):
@@ -169,15 +201,14 @@ def classes(method: str, table: dict) -> dict:
     return t
   groups = {}
   for tree, entry in table.items():
-    fp = entry.get("methods", {}).get(method)
-    if fp:
-      parent[tree] = tree
-      groups.setdefault((entry.get("machine", UNRECORDED), fp), []).append(tree)
-    for mach, sub in entry.get("machines", {}).items():
-      fp = sub.get("methods", {}).get(method)
+    for mach, methods, kinds in _measurements(entry):
+      fp = methods.get(method)
       if fp:
         parent[tree] = tree
-        groups.setdefault((mach, fp), []).append(tree)
+        groups.setdefault((mach, "", fp), []).append(tree)
+      kfp = kinds.get(method, {}).get(kind) if kind else None
+      if fp and kfp:
+        groups.setdefault((mach, kind, kfp), []).append(tree)
   for trees in groups.values():
     for t in trees[1:]:
       parent[find(t)] = find(trees[0])
@@ -187,21 +218,20 @@ def classes(method: str, table: dict) -> dict:
   out = {}
   for trees in members.values():
     first = min(trees, key=lambda t: (table[t].get("commit_time", ""), t))
-    entry = table[first]
-    name = entry.get("methods", {}).get(method) or next(
-        sub["methods"][method] for sub in entry.get("machines", {}).values()
-        if method in sub.get("methods", {}))
+    name = next(methods[method] for _, methods, _ in _measurements(table[first])
+                if methods.get(method))
     out.update({t: name for t in trees})
   return out
 
 
 def of_record(rec: dict, table: dict) -> str:
-  """The record's fingerprint for its method (its code tree's class:
-  `classes`), or MODIFIED / UNMEASURED."""
+  """The record's fingerprint for its method on its scene's kind (its code
+  tree's class: `classes`), or MODIFIED / UNMEASURED."""
   if modified(rec):
     return MODIFIED
   tree = tree_of(rec)
-  return (classes(rec.get("method"), table).get(tree) if tree else None) or UNMEASURED
+  kind = kind_of(rec.get("config", ""))
+  return (classes(rec.get("method"), table, kind).get(tree) if tree else None) or UNMEASURED
 
 
 def newest(table: dict):
@@ -216,10 +246,10 @@ def newest(table: dict):
   return tree, table[tree]
 
 
-def current(method: str, table: dict):
-  """The fingerprint (class: `classes`) of `method` at the newest measured
-  commit (None where that measurement has no run of the method)."""
-  return classes(method, table).get(newest(table)[0])
+def current(method: str, table: dict, kind: str = ""):
+  """The fingerprint (class: `classes`) of `method` (on `kind`) at the newest
+  measured commit (None where that measurement has no run of the method)."""
+  return classes(method, table, kind).get(newest(table)[0])
 
 
 def commit_time(commit: str) -> str:

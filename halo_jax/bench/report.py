@@ -64,25 +64,39 @@ def load(results_root):
 
 
 def pool(scenes, table):
-  """(pooled scenes, versions): each method keeps only its records of one
-  code fingerprint (code_version.choose, over the whole suite), so no table
-  mixes the numbers of two codes. versions: {method: {'fingerprint', 'runs',
-  'current', 'aside': [(scene, record, why), ...]}}."""
+  """(pooled scenes, versions): each method keeps, per scene kind, only its
+  records of one code fingerprint (code_version.choose; a fingerprint is
+  measured per kind), so no table mixes the numbers of two codes. versions:
+  {method: {'fingerprint' (the most records'), 'by_kind' (kinds of another
+  fingerprint), 'runs', 'current', 'aside': [(scene, record, why), ...]}}."""
   methods = in_method_order({m: 1 for by in scenes.values() for m in by})
   pooled = collections.defaultdict(dict)
   versions = {}
   for m in methods:
     tagged = [(s, r) for s, by in sorted(scenes.items()) for r in by.get(m, [])]
-    fp, chosen, aside = code_version.choose([r for _, r in tagged], table)
+    kinds = collections.defaultdict(list)
+    for s, r in tagged:
+      kinds[code_version.kind_of(r.get("config", ""))].append(r)
+    fps, chosen, aside = {}, [], []
+    for kind, records in sorted(kinds.items()):
+      fps[kind], c, a = code_version.choose(records, table)
+      chosen += c
+      aside += a
     for s, r in tagged:
       if any(r is c for c in chosen):
         pooled[s].setdefault(m, []).append(r)
     why = lambda r: code_version.of_record(r, table)  # noqa: E731
     rates = [final_steps_per_s(r) for r in chosen]
     rates = [x for x in rates if x]
+    counts = collections.Counter()
+    for kind, fp in fps.items():
+      counts[fp] += sum(any(r is c for c in chosen) for r in kinds[kind])
+    fp = counts.most_common(1)[0][0] if counts else None
     versions[m] = {"fingerprint": fp, "runs": len(chosen),
+                   "by_kind": {k: f for k, f in fps.items() if f != fp},
                    "steps_per_s": float(np.median(rates)) if rates else None,
-                   "current": fp is not None and fp == code_version.current(m, table),
+                   "current": all(f is not None and f == code_version.current(m, table, k)
+                                  for k, f in fps.items()) and bool(fps),
                    "newest": (code_version.newest(table)[1].get("commit") or "?")[:7],
                    "aside": [(s, r, why(r)) for s, r in tagged if any(r is a for a in aside)],
                    "step_table_changed": m in _step_table_changes(json.dumps(table))}
@@ -276,7 +290,8 @@ def _fingerprint_note(versions, methods) -> str:
   for m in methods:
     v = versions[m]
     same = "the same" if v["current"] else "otherwise"
-    parts.append(f"{m} {v['fingerprint']} ({v['runs']} runs"
+    kinds = "".join(f", {k} {f}" for k, f in sorted(v.get("by_kind", {}).items()))
+    parts.append(f"{m} {v['fingerprint']}{kinds} ({v['runs']} runs"
                  f"{', ' + str(len(v['aside'])) + ' set aside' if v['aside'] else ''}; the newest "
                  f"measured code, {v['newest']}, computes {same}"
                  + ("; **the committed step table's entries for it changed since that "
