@@ -280,6 +280,14 @@ def test_halo_settings_reach_every_halo_method_and_no_baseline():
   assert configure.load(spheres_spec, "nerf_tuned").hi.precrop_steps == 200
   assert configure.load(hook_spec, "nerf_tuned").hi.lr_init == 2e-3
   assert configure.load(spheres_spec, "halo").hi.lr_init == 2e-3  # static: unchanged
+  # forward-facing: a quarter of Hi's samples over the whole ray, at every size
+  for spec, samples in (("configs/llff.py:fern_4view_cpu", 32), ("configs/llff.py:fern_4view", 128)):
+    for name in ("halo", "halo+freenerf"):
+      fern = configure.load(spec, name).hi.sampler
+      assert (fern.kind, fern.num_samples, fern.num_full) == ("depth_guided", samples,
+                                                              samples // 4), (spec, name)
+  assert configure.load(spheres_spec, "halo").hi.sampler.num_full == 0
+  assert configure.load("configs/llff.py:fern_4view_cpu", "nerf_tuned").hi.sampler.num_full == 0
 
 
 # Every shipped scene variant, one per protocol and size.
