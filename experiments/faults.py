@@ -16,6 +16,8 @@ import sys
 import tempfile
 import time
 
+from halo_jax.stages import metrics_log
+
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 TINY = ["--config.lo.steps=3", "--config.lo.model.width=16", "--config.lo.model.depth=2",
         "--config.lo.batch_rays=64", "--config.lo.microbatches=1",
@@ -92,7 +94,7 @@ def case_kill_and_resume(wd):
   proc.send_signal(signal.SIGKILL)
   proc.wait()
   out = run(cmd)
-  recs = [json.loads(line) for line in open(os.path.join(wd, "metrics.jsonl"))]
+  recs = metrics_log.read(wd)
   steps = [r["step"] for r in recs if r.get("stage") == "lo" and "loss" in r]
   out["resumed_all_steps_once"] = steps == sorted(set(steps)) and steps[-1] == 400
   return out

@@ -1,5 +1,5 @@
 """halo-view on finished runs of every scene kind, in headless Chromium: a
-screenshot of each (docs/viewer_<kind>.png) and the time from a camera move
+screenshot of each (docs/images/viewer_<kind>.png) and the time from a camera move
 to the first image and to the settled one (results/viewer_latency.json).
 
   python experiments/viewer_check.py --runs=/tmp/viewer_runs [--train_s=60]
@@ -156,7 +156,7 @@ def main(argv):
       workdir = os.path.join(FLAGS.runs, kind)
       if not _train(kind, workdir):
         continue
-      png = os.path.join(ROOT, "docs", f"viewer_{kind}.png")
+      png = os.path.join(ROOT, "docs", "images", f"viewer_{kind}.png")
       moves = check(kind, workdir, lambda: browser.new_page(
           viewport={"width": 800, "height": 520}), png)
       results[kind] = {"config": KINDS[kind][0], "size": FLAGS.size, "moves": moves,

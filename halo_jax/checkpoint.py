@@ -11,7 +11,7 @@ import jax
 import ml_collections
 import orbax.checkpoint as ocp
 
-from halo_jax import defaults
+from halo_jax import atomic, defaults
 
 
 def manager(directory: str, max_to_keep: Optional[int] = 2) -> ocp.CheckpointManager:
@@ -41,11 +41,7 @@ def restore(mngr: ocp.CheckpointManager, step: int, like):
 
 
 def write_config(path: str, config: ml_collections.ConfigDict) -> None:
-  os.makedirs(os.path.dirname(path), exist_ok=True)
-  tmp = path + ".tmp"
-  with open(tmp, "w") as f:
-    f.write(config.to_json_best_effort(indent=1, sort_keys=True))
-  os.replace(tmp, path)
+  atomic.write_text(path, config.to_json_best_effort(indent=1, sort_keys=True))
 
 
 def read_config(path: str) -> ml_collections.ConfigDict:

@@ -10,7 +10,7 @@ import json
 import os
 
 from halo_jax import pipeline, protocol, provenance
-from halo_jax.stages import collapse
+from halo_jax.stages import collapse, metrics_log
 
 
 def read_curve(workdir, heldout=True):
@@ -19,13 +19,8 @@ def read_curve(workdir, heldout=True):
   held-out evaluations, or with heldout=False the logged training batches of
   the stages that render. The seconds are the reference clock's (the same on
   any machine) where the log has them, else this machine's training seconds."""
-  path = os.path.join(workdir, "metrics.jsonl")
-  if not os.path.exists(path):
-    return []
-  with open(path) as f:
-    recs = [json.loads(line) for line in f]
   points = {}
-  for r in recs:
+  for r in metrics_log.read(workdir):
     if bool(r.get("heldout")) == heldout and "psnr" in r:
       points[(r.get("stage"), r.get("step"))] = [r.get("reference_s", r["wall_s"]), r["psnr"]]
   return sorted(points.values())

@@ -21,7 +21,7 @@ import hashlib
 import json
 import os
 
-from halo_jax import config_files
+from halo_jax import atomic, config_files
 
 TABLE = os.path.join(os.path.dirname(__file__), "step_table.json")
 
@@ -88,9 +88,6 @@ def machine(path: str = "") -> dict:
 def write(path: str, entries: dict, machine_record: dict) -> None:
   """Writes the table (sorted, so a re-measure diffs line by line)."""
   _read.cache_clear()
-  tmp = path + ".tmp"
-  with open(tmp, "w") as f:
-    json.dump({"machine": machine_record, "entries": dict(sorted(entries.items()))}, f,
-              indent=1, sort_keys=True)
-    f.write("\n")
-  os.replace(tmp, path)
+  atomic.write_text(path, json.dumps(
+      {"machine": machine_record, "entries": dict(sorted(entries.items()))},
+      indent=1, sort_keys=True) + "\n")

@@ -9,7 +9,6 @@ add a time in [0, 1]. Outputs are colour, depth (turbo, near to far of the
 visible pixels) and opacity, as uint8 [H, W, 3].
 """
 import dataclasses
-import json
 import os
 import time
 from typing import Any, Dict, Optional, Tuple
@@ -20,6 +19,7 @@ from halo_jax import camera, checkpoint, datasets, raycast, restore, samplers, v
 from halo_jax.datasets.base import Views
 from halo_jax.datasets.llff import NDCViews
 from halo_jax.datasets.stanford_lf import LightFieldViews
+from halo_jax.stages import metrics_log
 from halo_jax.geometry import Geometry
 from halo_jax.stages import base, order, state, step as steps
 
@@ -196,17 +196,7 @@ def _live_run(field: FieldView, name: str) -> LiveRun:
 
 def read_records(workdir: str):
   """metrics.jsonl's records so far (a line being written is skipped)."""
-  path = os.path.join(workdir, "metrics.jsonl")
-  if not os.path.exists(path):
-    return []
-  out = []
-  with open(path) as f:
-    for line in f:
-      try:
-        out.append(json.loads(line))
-      except ValueError:
-        pass
-  return out
+  return metrics_log.read(workdir)
 
 
 def to_image(r, output: str) -> np.ndarray:

@@ -1,5 +1,5 @@
 """What sets HALO's margin at a budget, measured on a finished HALO run and
-the nerf_tuned run of the same scene, seed and suite (issue 60):
+the nerf_tuned run of the same scene, seed and suite:
 
 - Hi-NeRF's samples. On the same held-out views (a regular pixel grid of
   them, MAX_RAYS at most: the file's pixel_stride), Hi's trained field is
@@ -29,7 +29,6 @@ machine that trained them:
   python -m halo_jax.bench.budget_probe --suite=budget_960 --scratch=/tmp/bud_s0
 """
 import copy
-import json
 import math
 import os
 import sys
@@ -43,7 +42,7 @@ from halo_jax.bench import run_file, selection, suites, tool
 from halo_jax.bench.paths import REPO, result_path, workdir_of
 from halo_jax.bench.report_common import BASELINE
 from halo_jax.geometry import Geometry
-from halo_jax.stages import base, radiance
+from halo_jax.stages import base, metrics_log, radiance
 
 METHOD = "halo"
 OPAQUE = 0.5          # acc above which a ray counts as hitting a surface
@@ -124,12 +123,9 @@ def window_facts(depth, sampler_cfg, near, far, own, other, opaque, sq_err) -> d
 def empty_share(workdir, weight):
   """{'first', 'last'}: L_empty's weighted value over Hi's loss, mean over
   the first and last QUARTER of Hi's logged steps; None without the term."""
-  path = os.path.join(workdir, "metrics.jsonl")
-  if weight <= 0 or not os.path.exists(path):
+  if weight <= 0:
     return None
-  with open(path) as f:
-    rows = [json.loads(line) for line in f]
-  rows = [r for r in rows if r.get("stage") == "hi" and "empty" in r and r.get("loss")]
+  rows = [r for r in metrics_log.read(workdir) if r.get("stage") == "hi" and "empty" in r and r.get("loss")]
   if not rows:
     return None
   share = np.array([weight * r["empty"] / r["loss"] for r in rows])

@@ -28,7 +28,7 @@ import os
 from halo_jax import protocol, step_table
 from halo_jax.bench import benchmark, suites
 from halo_jax.configure import set_field
-from halo_jax.stages import collapse
+from halo_jax.stages import collapse, metrics_log
 from halo_jax.stages.order import needed
 
 # Stage fields at which a step schedule switches (a step count each; 0: none).
@@ -129,13 +129,11 @@ def figures(workdir: str, infos: dict, final_stage: str, collapsed: str = "") ->
   '', 'psnr': [final held-out PSNR per view]}, floats as computed."""
   from halo_jax.stages import snapshots
   losses, heldout = {}, {}
-  with open(os.path.join(workdir, "metrics.jsonl")) as f:
-    for line in f:
-      r = json.loads(line)
-      if r.get("heldout") and "psnr" in r:
-        heldout.setdefault(r["stage"], []).append([r["step"], r["psnr"]])
-      elif "loss" in r:
-        losses.setdefault(r["stage"], []).append([r["step"], r["loss"]])
+  for r in metrics_log.read(workdir):
+    if r.get("heldout") and "psnr" in r:
+      heldout.setdefault(r["stage"], []).append([r["step"], r["psnr"]])
+    elif "loss" in r:
+      losses.setdefault(r["stage"], []).append([r["step"], r["loss"]])
   final = (infos.get(final_stage) or {}).get("eval", {}).get("per_view", {})
   return {"losses": losses, "heldout": heldout,
           "steps": {n: int(i.get("step", 0)) for n, i in infos.items()},

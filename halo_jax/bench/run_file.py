@@ -3,6 +3,8 @@ added to one run at a time so that a killed experiment resumes."""
 import json
 import os
 
+from halo_jax import atomic
+
 
 def read(path: str) -> dict:
   if not os.path.exists(path):
@@ -13,10 +15,7 @@ def read(path: str) -> dict:
 
 def write_json(path: str, obj) -> None:
   """Writes `obj` to `path` atomically: a killed write leaves no half file."""
-  os.makedirs(os.path.dirname(path) or ".", exist_ok=True)
-  with open(path + ".tmp", "w") as f:
-    json.dump(obj, f, indent=1)
-  os.replace(path + ".tmp", path)
+  atomic.write_json(path, obj, indent=1)
 
 
 def append(path: str, data: dict, record: dict) -> None:

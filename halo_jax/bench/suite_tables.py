@@ -154,9 +154,9 @@ def curve_drop(records) -> float:
 
 FAILURE_DROP_DB = 0.5  # a curve that falls this far from its peak shows the failure
 
-# The margins over NeRF the project's issues stated, per scene kind (dB):
-# lego's +1.5 (issue 2, the paper's 8-view setting), D-NeRF's +0.5 (issue 5),
-# the light field's +1 (issue 7). A kind with no stated number is not judged.
+# The margins over NeRF the project set itself, per scene kind (dB): lego's
+# +1.5 (the paper's 8-view setting), D-NeRF's +0.5, the light field's +1. A
+# kind with no stated number is not judged.
 GOALS_DB = {"blender": 1.5, "dnerf": 0.5, "stanford_lf": 1.0}
 
 

@@ -4,13 +4,36 @@ import os
 
 import jax
 
+from halo_jax import atomic
+
+
+FILE = "metrics.jsonl"
+
+
+def read(workdir: str) -> list:
+  """A run's records so far, in order ([] where it has none). A line that does
+  not parse is skipped: the last line of a log being written, or of a run
+  killed mid-write. The one reader of the file: every tool reads it here."""
+  path = os.path.join(workdir, FILE)
+  if not os.path.exists(path):
+    return []
+  out = []
+  with open(path) as f:
+    for line in f:
+      try:
+        out.append(json.loads(line))
+      except json.JSONDecodeError:
+        continue
+  return out
+
 
 class MetricsLog:
   """Appends one JSON object a line to `<workdir>/metrics.jsonl`."""
 
   def __init__(self, workdir: str):
     os.makedirs(workdir, exist_ok=True)
-    self.path = os.path.join(workdir, "metrics.jsonl")
+    self.workdir = workdir
+    self.path = os.path.join(workdir, FILE)
 
   def write(self, **record):
     if jax.process_index() != 0:  # multi-host: one log for the job
@@ -22,17 +45,10 @@ class MetricsLog:
     """[(step, batch PSNR)] of `stage`'s training records, in step order (the
     last of each step: a resumed run's records replace the killed run's);
     `key` reads another logged figure instead."""
-    if not os.path.exists(self.path):
-      return []
     by_step = {}
-    with open(self.path) as f:
-      for line in f:
-        try:
-          rec = json.loads(line)
-        except json.JSONDecodeError:
-          continue
-        if rec.get("stage") == stage and not rec.get("heldout") and key in rec:
-          by_step[int(rec["step"])] = float(rec[key])
+    for rec in read(self.workdir):
+      if rec.get("stage") == stage and not rec.get("heldout") and key in rec:
+        by_step[int(rec["step"])] = float(rec[key])
     return sorted(by_step.items())
 
   def drop_after(self, stage: str, step: int) -> None:
@@ -40,17 +56,6 @@ class MetricsLog:
     last checkpoint), so a resumed run logs each step once. Atomic rewrite."""
     if jax.process_index() != 0 or not os.path.exists(self.path):
       return
-    with open(self.path) as f:
-      lines = f.readlines()
-    keep = []
-    for line in lines:
-      try:
-        rec = json.loads(line)
-      except json.JSONDecodeError:
-        continue  # a line cut short by the kill
-      if not (rec.get("stage") == stage and rec.get("step", 0) > step):
-        keep.append(json.dumps(rec) + "\n")
-    tmp = self.path + ".tmp"
-    with open(tmp, "w") as f:
-      f.writelines(keep)
-    os.replace(tmp, self.path)
+    keep = [json.dumps(rec) + "\n" for rec in read(self.workdir)
+            if not (rec.get("stage") == stage and rec.get("step", 0) > step)]
+    atomic.write_text(self.path, "".join(keep))

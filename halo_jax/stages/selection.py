@@ -12,7 +12,7 @@ import json
 import os
 from typing import Optional
 
-from halo_jax import checkpoint, parallel
+from halo_jax import atomic, checkpoint, parallel
 
 
 def folder(workdir: str, name: str) -> str:
@@ -45,9 +45,7 @@ class Best:
     self.record = {"step": int(step), "psnr": float(psnr)}
     if parallel.is_primary():
       path = os.path.join(folder(self.workdir, self.name), "record.json")
-      with open(path + ".tmp", "w") as f:
-        json.dump(self.record, f)
-      os.replace(path + ".tmp", path)
+      atomic.write_json(path, self.record)
     return True
 
   def params(self, like):

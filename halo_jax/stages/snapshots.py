@@ -19,7 +19,7 @@ import json
 import os
 from typing import Sequence
 
-from halo_jax import checkpoint, parallel
+from halo_jax import atomic, checkpoint, parallel
 
 
 def folder(workdir: str, name: str) -> str:
@@ -76,7 +76,5 @@ class Snapshots:
         {"at_s": float(t), "step": int(step), "wall_s": float(total_s)} for t in times]
     if parallel.is_primary():
       path = os.path.join(folder(self.workdir, self.name), "index.json")
-      tmp = path + ".tmp"
-      with open(tmp, "w") as f:
-        json.dump({"points": sorted(self.points, key=lambda p: p["at_s"])}, f, indent=1)
-      os.replace(tmp, path)
+      atomic.write_json(path, {"points": sorted(self.points, key=lambda p: p["at_s"])},
+                        indent=1)
