@@ -13,6 +13,7 @@ import sys
 from absl import flags
 
 from halo_jax import config_files, configure, pipeline, protocol
+from halo_jax.methods import METHODS
 from halo_jax.bench import tool
 from halo_jax.registry import ConfigError
 
@@ -26,8 +27,7 @@ KINDS = (
     ("ndc (LLFF fern, 4 views)", "configs/llff.py:fern_4view_cpu"),
     ("two_plane (Stanford knights)", "configs/stanford_lf.py:knights_cpu"),
 )
-ORDER = ("nerf_paper", "nerf_tuned", "freenerf", "halo", "halo+freenerf", "halo+unseen",
-         "halo_auto", "halo_joint", "halo_authors")
+ORDER = tuple(METHODS.names())
 # Inputs and bookkeeping, not settings of the method itself: the data and its
 # protocol, the budget's split (a single stage takes it all), and
 # baseline.num_samples (read into hi.sampler.num_samples).

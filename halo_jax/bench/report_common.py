@@ -2,9 +2,11 @@
 every method is measured against, and mean ± std cells."""
 import numpy as np
 
+from halo_jax import methods
+
 from halo_jax.stages import collapse
 
-METHOD_ORDER = ("nerf_paper", "nerf_tuned", "freenerf", "halo", "halo+freenerf", "halo+unseen")
+METHOD_ORDER = methods.with_role(methods.base.COMPARED, methods.base.REPORTED)
 BASELINE = "nerf_tuned"
 
 

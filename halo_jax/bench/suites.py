@@ -8,10 +8,13 @@ skips the scene instead of failing.
 import dataclasses
 from typing import Tuple
 
-ALL_METHODS = ("nerf_paper", "nerf_tuned", "freenerf", "halo", "halo+freenerf", "halo+unseen")
+from halo_jax import methods
+
+# The registry's compared and reported methods (methods.with_role)
+ALL_METHODS = methods.with_role(methods.base.COMPARED, methods.base.REPORTED)
 # halo+unseen is halo itself where every point a test view sees lies in a
 # training frustum (forward-facing scenes): no run of its own there.
-FORWARD_FACING_METHODS = ALL_METHODS[:-1]
+FORWARD_FACING_METHODS = tuple(m for m in ALL_METHODS if m != "halo+unseen")
 # FreeNeRF's mask schedules ordered P.E. bands; the light-field field has
 # none, and nerf_paper's coarse+fine sampler is for 3D rays.
 LIGHT_FIELD_METHODS = ("nerf_tuned", "halo")

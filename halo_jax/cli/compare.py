@@ -26,7 +26,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # pylint: disable=g-import-not-at-top
 from ml_collections import config_flags
 
-from halo_jax import config_files, datasets, pipeline, runs, tables
+from halo_jax import config_files, datasets, methods, pipeline, runs, tables
 from halo_jax.cli import config_of_flags, launch
 
 FLAGS = flags.FLAGS
@@ -39,7 +39,7 @@ def define_flags():
   flags.DEFINE_string("workdir", None, "Output folder.")
   flags.DEFINE_bool("all_views_reference", False, "Also train NeRF on all training views.")
   flags.DEFINE_integer("curve_points", 4, "Held-out evaluations per method for the curve.")
-  flags.DEFINE_list("methods", ["nerf_paper", "nerf_tuned", "freenerf", "halo", "halo+freenerf"],
+  flags.DEFINE_list("methods", list(methods.with_role(methods.base.COMPARED)),
                     "Methods to train (names in halo_jax.methods.METHODS); results of others "
                     "already in DIR/results.json are kept.")
   flags.mark_flags_as_required(["config", "workdir"])

@@ -16,16 +16,22 @@ from halo_jax.methods import (freenerf, halo, halo_authors, halo_auto, halo_free
                               halo_unseen, nerf_paper, nerf_tuned)
 from halo_jax.methods.base import Method
 
+# In the order tables list them.
 METHODS = registry.Registry[Method]("method")
-METHODS.register("halo", halo.METHOD)
-METHODS.register("nerf_tuned", nerf_tuned.METHOD)
 METHODS.register("nerf_paper", nerf_paper.METHOD)
+METHODS.register("nerf_tuned", nerf_tuned.METHOD)
 METHODS.register("freenerf", freenerf.METHOD)
+METHODS.register("halo", halo.METHOD)
 METHODS.register("halo+freenerf", halo_freenerf.METHOD)
-METHODS.register("halo_auto", halo_auto.METHOD)
 METHODS.register("halo+unseen", halo_unseen.METHOD)
+METHODS.register("halo_auto", halo_auto.METHOD)
 METHODS.register("halo_joint", halo_joint.METHOD)
 METHODS.register("halo_authors", halo_authors.METHOD)
+
+
+def with_role(*roles) -> tuple:
+  """The registered methods whose `role` is one of `roles`, in table order."""
+  return tuple(n for n, m in METHODS.items() if m.role in roles)
 
 def apply(config, name: str):
   """A copy of the scene config `config` turned into method `name` (METHODS).
@@ -56,4 +62,4 @@ def _check_scene(method, name, data):
                  f"{'' if method.dynamic else ', static scenes only'}")
 
 
-__all__ = ["METHODS", "Method", "apply"]
+__all__ = ["METHODS", "Method", "apply", "with_role"]

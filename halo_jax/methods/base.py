@@ -15,8 +15,14 @@ class ApplyFn(Protocol):
 class Method:
   """summary: one line for tables and --help; apply: ConfigDict -> ConfigDict
   (edits and returns its argument); geometries: the ray geometries of the
-  scenes it runs on; dynamic: whether it runs on time-dependent scenes."""
+  scenes it runs on; dynamic: whether it runs on time-dependent scenes;
+  role: COMPARED (halo-compare's default and the benchmark's suites),
+  REPORTED (the suites only) or "" (run on request)."""
   summary: str
   apply: ApplyFn
   geometries: frozenset = geometry.ALL
   dynamic: bool = True
+  role: str = ""
+
+
+COMPARED, REPORTED = "compared", "reported"

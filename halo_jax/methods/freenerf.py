@@ -25,4 +25,5 @@ def apply(c):
 
 
 METHOD = base.Method("FreeNeRF: the paper's NeRF with a P.E. mask that opens over 90% of "
-                     "training and an occlusion loss", apply, geometries=geometry.SPATIAL)
+                     "training and an occlusion loss", apply, geometries=geometry.SPATIAL,
+                     role=base.COMPARED)

@@ -123,4 +123,5 @@ def apply(c):
   return c
 
 
-METHOD = base.Method("HALO: a low-frequency field guides and regularises Hi-NeRF", apply)
+METHOD = base.Method("HALO: a low-frequency field guides and regularises Hi-NeRF", apply,
+                     role=base.COMPARED)

@@ -15,4 +15,4 @@ def apply(c):
   return c
 
 
-METHOD = base.Method("HALO with FreeNeRF's P.E. schedule on Hi-NeRF", apply)
+METHOD = base.Method("HALO with FreeNeRF's P.E. schedule on Hi-NeRF", apply, role=base.COMPARED)

@@ -25,4 +25,4 @@ def apply(c):
 
 
 METHOD = base.Method("HALO with L_unseen: Lo and Hi kept empty where no training camera looks",
-                     apply)
+                     apply, role=base.REPORTED)

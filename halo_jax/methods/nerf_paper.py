@@ -35,4 +35,4 @@ def apply(c):
 
 
 METHOD = base.Method("NeRF as published: coarse + fine MLPs, ReLU density, one image a step",
-                     apply, geometries=geometry.SPATIAL)
+                     apply, geometries=geometry.SPATIAL, role=base.COMPARED)

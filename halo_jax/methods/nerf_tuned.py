@@ -22,4 +22,5 @@ def apply(c, num_samples: int = 0):
   return c
 
 
-METHOD = base.Method("NeRF, one MLP, stratified samples, softplus density, noise 1.0", apply)
+METHOD = base.Method("NeRF, one MLP, stratified samples, softplus density, noise 1.0", apply,
+                     role=base.COMPARED)
