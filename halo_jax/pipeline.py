@@ -8,11 +8,10 @@ not in the list is restored from the workdir, where an earlier launch left
 it. Nothing here branches on a model, sampler, method or data kind.
 """
 import contextlib
-import copy
 import json
 import os
 
-from halo_jax import datasets, parallel, protocol, provenance, stages, validate
+from halo_jax import datasets, frozen, parallel, protocol, provenance, stages, validate
 from halo_jax.frequency import tuning
 from halo_jax import workdir_lock
 from halo_jax.stages import base, budget, collapse, metrics_log
@@ -52,7 +51,8 @@ def run(config, workdir: str, dataset=None, pacer=None) -> dict:
   ('heldout_learned'). A stage that collapsed is saved and raises collapse.Collapsed.
   """
   validate.validate(config)
-  config = protocol.resolve(copy.deepcopy(config))  # as configure resolved it, or anew
+  # as configure resolved it, or anew; from here on one value no stage can edit
+  config = frozen.freeze(protocol.resolve(frozen.thaw(config)))
   # In a multi-process job the processes share the workdir; process 0 holds it.
   held = workdir_lock.hold(workdir) if parallel.is_primary() else contextlib.nullcontext()
   with held:
@@ -65,8 +65,8 @@ def _run(config, workdir, dataset, pacer):
   run_now = parse_stages(config.stages, config)
   if config.lo.encoding.auto and "lo" in needed(config):
     # The search's own training time is not part of this run's budget.
-    config.lo.encoding.L, config.lo.encoding.scale = tuning.chosen_encoding(
-        config, workdir, dataset, run)
+    L, scale = tuning.chosen_encoding(config, workdir, dataset, run)
+    config = frozen.replaced(config, {"lo.encoding.L": L, "lo.encoding.scale": scale})
   log = metrics_log.MetricsLog(workdir)
   mesh = parallel.make_mesh(config.parallel)
   # wall: this machine's training seconds; spent: the method's reference
@@ -80,9 +80,10 @@ def _run(config, workdir, dataset, pacer):
       wall += info["wall_s"]
       spent = info.get("reference_end_s", spent + info["wall_s"])
       continue
-    budget.start_measured(config, name, until, spent)
-    ctx = base.StageContext(config, name, dataset, workdir, dict(states), log, spent, mesh, pacer)
-    state, info = base.trainer_of(config, name).train(ctx)
+    stage_config = budget.measured_share(config, name, until, spent)
+    ctx = base.StageContext(stage_config, name, dataset, workdir, dict(states), log, spent, mesh,
+                            pacer)
+    state, info = base.trainer_of(stage_config, name).train(ctx)
     wall += info["wall_s"]
     spent = info["reference_end_s"]
     info.update(step=int(state.step), cumulative_wall_s=wall)

@@ -17,7 +17,8 @@ PACKAGE = pathlib.Path(__file__).resolve().parent.parent / "halo_jax"
 LAYERS = (
     {"registry", "types", "geometry", "rays", "trig", "encoding", "camera", "rng", "samplers", "render", "raycast",
      "losses", "metrics", "lightfield", "frequency", "frequency.spectrum", "plots", "provenance", "visibility",
-     "tensorboard", "video", "image_files", "config_files", "tables", "step_table", "progress"},
+     "tensorboard", "video", "image_files", "config_files", "tables", "step_table", "progress",
+     "atomic", "frozen"},
     {"models", "ray_fields", "datasets", "checkpoint", "parallel", "evaluate", "defaults",
      "camera_paths", "frequency.view_pairs",
      "workdir_lock"},

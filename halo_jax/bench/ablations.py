@@ -338,8 +338,7 @@ def _fingerprint_lines(study: Study, recs) -> list:
 
 
 def define_flags():
-  """This script's flags; --only, --results, --scratch and --dry_run are the
-  runner's (benchmark.define_flags), with the same meaning."""
+  """This script's flags, and the runner's (--only, --results, --scratch, --dry_run)."""
   benchmark.define_flags()
   flags.DEFINE_enum("study", "fog", sorted(STUDIES), "Study to run.")
   flags.DEFINE_string("docs", os.path.join(REPO, "docs", "results"), "Report folder.")

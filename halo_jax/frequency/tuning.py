@@ -9,7 +9,6 @@ whose rho falls below `config.tune.threshold` is chosen. The threshold was
 calibrated across scenes by leave-one-scene-out (docs/frequency.md). Held-out
 PSNR is measured for the report only; it never enters the choice.
 """
-import copy
 import json
 import os
 import sys
@@ -17,7 +16,7 @@ from typing import List, Tuple
 
 import numpy as np
 
-from halo_jax import progress, protocol
+from halo_jax import frozen, progress, protocol
 from halo_jax.frequency import spectrum, view_pairs
 from halo_jax.stages import base, collapse
 from halo_jax.stages.state import load
@@ -62,7 +61,7 @@ def criterion_of(render, dataset, config) -> dict:
 
 def point_config(config, L, scale):
   """The short Lo-NeRF run of one grid point."""
-  c = copy.deepcopy(config)
+  c = frozen.thaw(config)
   c.stages = "lo"
   protocol.steps(c)
   c.lo.encoding.L, c.lo.encoding.scale = int(L), float(scale)

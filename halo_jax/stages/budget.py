@@ -8,11 +8,11 @@ table lacks: it has `max_seconds` (its share of the budget, less the set-up
 work it did first) and fixes its count after its first MEASURE_STEPS steps
 (`fixed_count`). No loop stops on the clock.
 """
-import copy
 import json
 import math
 import os
 
+from halo_jax import frozen
 from halo_jax.stages.order import needed
 
 # steps a self-measuring stage times after compilation before fixing its count
@@ -31,12 +31,14 @@ def shares_until(config) -> dict:
   return until
 
 
-def start_measured(config, name, until, spent):
-  """A self-measuring stage `name` gets what is left of the budget up to it
-  (`until`, shares_until's) after `spent` reference seconds of the stages
-  before it: the one edit a running pipeline makes to its config."""
+def measured_share(config, name, until, spent):
+  """The config stage `name` trains with: for a self-measuring stage, a new
+  value whose `max_seconds` is what is left of the budget up to it (`until`,
+  shares_until's) after `spent` reference seconds of the stages before it;
+  otherwise `config` itself. The run's config is never edited."""
   if config[name].max_seconds and name in until:
-    config[name].max_seconds = max(until[name] - spent, 1e-3)
+    return frozen.replaced(config, {f"{name}.max_seconds": max(until[name] - spent, 1e-3)})
+  return config
 
 
 def minus_seconds(cfg, seconds):
@@ -45,9 +47,7 @@ def minus_seconds(cfg, seconds):
   targets); a stage with a fixed count is returned as it is."""
   if not cfg.max_seconds:
     return cfg
-  cfg = copy.deepcopy(cfg)
-  cfg.max_seconds = max(cfg.max_seconds - seconds, 1e-3)
-  return cfg
+  return frozen.replaced(cfg, {"max_seconds": max(cfg.max_seconds - seconds, 1e-3)})
 
 
 def last_step(cfg) -> int:
