@@ -15,7 +15,7 @@ flags (halo_jax/cli/__init__.py: config_of_flags).
 import importlib.util
 import os
 
-from halo_jax import config_files, methods, protocol
+from halo_jax import config_files, frozen, methods, protocol
 
 
 def load_scene(spec: str):
@@ -47,14 +47,6 @@ def load(spec: str, method: str, overrides=None):
   return as_method(load_scene(spec), method, overrides)
 
 
-def set_field(config, dotted: str, value):
-  """config.<dotted> = value; KeyError naming the field when it does not exist."""
-  *parents, leaf = dotted.split(".")
-  node = config
-  for p in parents:
-    node = node[p]
-  if leaf not in node:
-    raise KeyError(f"config has no field {dotted!r}")
-  node[leaf] = value
+set_field = frozen.set_field  # config.<dotted> = value, KeyError naming a missing field
 
 

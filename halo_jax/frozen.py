@@ -26,11 +26,17 @@ def replaced(config, fields: Dict[str, Any]) -> Frozen:
   (KeyError naming a field that does not exist)."""
   out = thaw(config)
   for dotted, value in fields.items():
-    *parents, leaf = dotted.split(".")
-    node = out
-    for p in parents:
-      node = node[p]
-    if leaf not in node:
-      raise KeyError(f"config has no field {dotted!r}")
-    node[leaf] = value
+    set_field(out, dotted, value)
   return freeze(out)
+
+
+def set_field(config, dotted: str, value):
+  """config.<dotted> = value on a mutable config; KeyError naming the field
+  when it does not exist."""
+  *parents, leaf = dotted.split(".")
+  node = config
+  for p in parents:
+    node = node[p]
+  if leaf not in node:
+    raise KeyError(f"config has no field {dotted!r}")
+  node[leaf] = value
