@@ -12,6 +12,12 @@ _DNERF = tuple(s for s in suites.CPU.scenes if s.name.startswith("dnerf_"))
 _PROCEDURAL = tuple(s for s in suites.CPU.scenes if s.name in ("spheres", "lattice"))
 
 
+# halo's two starts, as overrides of the authors' recipe
+_FG_START = (("lo.precrop_steps", 0), ("lo.fg_steps", 200), ("lo.fg_fraction", 0.5))
+_LO_COPY = (("hi.encoding.with_lo", True), ("hi.init_from_lo", True),
+            ("hi.init_skip_fresh", False))
+
+
 def _shares(lo, ray, hi):
   return (("budget_shares.lo", lo), ("budget_shares.ray", ray), ("budget_shares.hi", hi))
 
@@ -228,15 +234,16 @@ STUDIES = {
             Variant("halo", "halo", note="ours (the CPU config)"),
             Variant("halo_authors", "halo_authors", note="the authors' recipe at CPU size"),
             # two of halo's departures, one at a time, in the authors' recipe
-            Variant("halo_authors+fg_start", "halo_authors",
-                    (("lo.precrop_steps", 0), ("lo.fg_steps", 200), ("lo.fg_fraction", 0.5)),
+            Variant("halo_authors+fg_start", "halo_authors", _FG_START,
                     "Lo without the centre crop, half of its first 200 batches from the "
                     "foreground (halo's start)"),
-            Variant("halo_authors+lo_copy", "halo_authors",
-                    (("hi.encoding.with_lo", True), ("hi.init_from_lo", True),
-                     ("hi.init_skip_fresh", False)),
+            Variant("halo_authors+lo_copy", "halo_authors", _LO_COPY,
                     "Hi reads Lo's encoding beside its own and starts from all of Lo's "
                     "weights (halo's start)"),
+            Variant("halo_authors+both_starts", "halo_authors", _FG_START + _LO_COPY,
+                    "both of halo's starts in the authors' recipe"),
+            Variant("halo_authors+lo_scale_32", "halo_authors", (("lo.encoding.scale", 32.0),),
+                    "their Lo-P.E. scale (32, as at paper size) instead of the CPU scenes' 1"),
         ),
         reference="halo", seeds=2, budget="time", front=False),
     "static_front": Study(
