@@ -1,5 +1,10 @@
-"""`python experiments/calibrate_frequency.py`: halo_jax/bench/calibrate_frequency.py run from a clone."""
-from halo_jax.bench import calibrate_frequency
+"""`python experiments/calibrate_frequency.py`: experiments/bench/calibrate_frequency.py run from a clone."""
+import os
+import sys
+
+# run as a script from a clone: its root on the path, for the experiments package
+sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+from experiments.bench import calibrate_frequency
 
 if __name__ == "__main__":
   calibrate_frequency.cli()

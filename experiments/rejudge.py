@@ -24,8 +24,10 @@ from absl import app, flags
 import ml_collections
 
 from halo_jax import datasets
-from halo_jax.bench import run_file
-from halo_jax.bench.paths import REPO
+# run as a script from a clone: its root on the path, for the experiments package
+sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+from experiments.bench import run_file
+from experiments.bench.paths import REPO
 from halo_jax.stages import collapse
 
 flags.DEFINE_string("results", os.path.join(REPO, "results"), "Result files' root.")

@@ -23,6 +23,9 @@ import time
 
 from absl import app, flags
 
+# run as a script from a clone: its root on the path, for the experiments package
+sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+
 FLAGS = flags.FLAGS
 flags.DEFINE_string("scene", "lego_8view", "a CPU-suite scene")
 flags.DEFINE_string("method", "nerf_tuned", "a method of that scene")
@@ -52,7 +55,7 @@ def run_child():
   if FLAGS.child != "all_cores":
     os.sched_setaffinity(0, {cores[0]})
   from halo_jax import runs  # pylint: disable=import-outside-toplevel
-  from halo_jax.bench import benchmark, suites  # pylint: disable=import-outside-toplevel
+  from experiments.bench import benchmark, suites  # pylint: disable=import-outside-toplevel
   scene = next(s for s in suites.CPU.scenes if s.name == FLAGS.scene)
   with tempfile.TemporaryDirectory(prefix="same_figures_") as tmp:
     c = benchmark.configure(suites.CPU, scene, FLAGS.method, FLAGS.seed, "budget", tmp)

@@ -1,7 +1,7 @@
 """Fingerprint runs of every method on every scene kind, for refactors that
 must not move a number, and the code's fingerprint.
 
-Each run is the fingerprint run of halo_jax/bench/fingerprint.py: the CPU
+Each run is the fingerprint run of experiments/bench/fingerprint.py: the CPU
 suite's run of a scene and method at shrunk sizes, every stage trained past
 every step switch the suite's run crosses (the crop, the foreground start,
 the collapse check, L_empty's start, the light field's window), under the
@@ -15,11 +15,13 @@ held-out figure and every step count should agree to the last digit, or
   ... change the code ...
   python experiments/same_numbers.py --out=/tmp/after.json --compare=/tmp/before.json
 
-The same runs fingerprint the code (halo_jax/bench/code_version.py): --record
+The same runs fingerprint the code (experiments/bench/code_version.py): --record
 stores each method's fingerprint, the hash of its runs' figures, in
 results/fingerprints.json under the code tree of the checkout, and
---commit=SHA measures an earlier commit in a temporary git worktree (this
-script and fingerprint.py, that commit's library; commits from 1f8ac84 on):
+--commit=SHA measures an earlier commit in a temporary git worktree with
+that commit's own script, fingerprint runs and library (commits from the
+benchmark's move to experiments/bench on; an older one is measured by running
+its own script in a worktree of it with --record there):
 
   python experiments/same_numbers.py --out=/tmp/head.json --record
   python experiments/same_numbers.py --out=/tmp/old.json --record --commit=1f8ac84
@@ -53,8 +55,10 @@ os.environ["XLA_FLAGS"] = (os.environ.get("XLA_FLAGS", "")
 
 from absl import app, flags, logging  # noqa: E402
 
-from halo_jax import datasets, defaults, pipeline, progress, provenance  # noqa: E402
-from halo_jax.bench import code_version, fingerprint, suites  # noqa: E402
+from halo_jax import datasets, defaults, pipeline, progress  # noqa: E402
+# run as a script from a clone: its root on the path, for the experiments package
+sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+from experiments.bench import code_version, fingerprint, git_state, suites  # noqa: E402
 from halo_jax.stages import collapse  # noqa: E402
 
 FLAGS = flags.FLAGS
@@ -131,17 +135,18 @@ def differences(before, after, tol):
 
 
 def measure_commit(commit: str) -> dict:
-  """Runs this script's runs at `commit` in a temporary worktree (this copy of
-  the script and of fingerprint.py, that commit's library) and returns its
-  --out figures."""
+  """Runs `commit`'s own same_numbers.py in a temporary worktree of it (its
+  fingerprint runs and library: the fingerprint run is part of the code a
+  record names) and returns its --out figures."""
   repo = code_version.REPO
   with tempfile.TemporaryDirectory(prefix="same_numbers_wt_") as tmp:
     tree = os.path.join(tmp, "tree")
     subprocess.run(["git", "-C", repo, "worktree", "add", "--detach", tree, commit], check=True,
                    capture_output=True)
     try:
-      shutil.copy(__file__, os.path.join(tree, "experiments", "same_numbers.py"))
-      shutil.copy(fingerprint.__file__, os.path.join(tree, "halo_jax", "bench", "fingerprint.py"))
+      if not os.path.exists(os.path.join(tree, "experiments", "bench", "fingerprint.py")):
+        raise SystemExit(f"{commit[:7]} predates experiments/bench: run its own "
+                         "experiments/same_numbers.py in a worktree of it")
       out = os.path.join(tmp, "figures.json")
       if os.path.exists(FLAGS.out):
         shutil.copy(FLAGS.out, out)
@@ -195,10 +200,10 @@ def main(argv):
       print(code_version.record(sha, results, FLAGS.views))
     return
   if FLAGS.record:
-    state = provenance.git_state()
+    state = git_state.git_state()
     if state["code_dirty"] or not state["code_tree"]:
       sys.exit("error: --record needs a checkout whose training code "
-               f"({', '.join(provenance.TRAINING_CODE)}) is committed and unmodified")
+               f"({', '.join(git_state.TRAINING_CODE)}) is committed and unmodified")
   data_root = os.environ.get("HALO_DATA", defaults.data_root(""))
   todo = [(scene, m) for scene, methods in scene_list() for m in methods
           if not scene.needs or os.path.isdir(os.path.join(data_root, scene.needs))]
@@ -213,7 +218,7 @@ def main(argv):
   results = {}
   # a stopped launch's runs are kept, but only those of this very code: a file
   # from another commit (or a modified tree) would lend its figures to this one
-  git = provenance.git_state()
+  git = git_state.git_state()
   tree = None if git["code_dirty"] else git["code_tree"]
   if os.path.exists(FLAGS.out):
     with open(FLAGS.out) as f:

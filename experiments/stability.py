@@ -2,7 +2,7 @@
 
   python experiments/stability.py [--out=DIR]
 
-Each row is one quantity of one case (halo_jax/bench/stability_cases.py): its largest
+Each row is one quantity of one case (experiments/bench/stability_cases.py): its largest
 error against a closed form or a float64 numpy reference, the tolerance, and
 whether every value and gradient was finite. Exits with status 1 if any row
 fails. With --out, also writes DIR/stability.json and DIR/stability.md.
@@ -14,7 +14,9 @@ import sys
 
 from absl import app, flags
 
-from halo_jax.bench import stability_cases as stability
+# run as a script from a clone: its root on the path, for the experiments package
+sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+from experiments.bench import stability_cases as stability
 
 flags.DEFINE_string("out", "", "folder for stability.json / stability.md (optional)")
 FLAGS = flags.FLAGS

@@ -19,7 +19,9 @@ import time
 from absl import app, flags, logging
 import numpy as np
 
-from halo_jax import provenance
+# run as a script from a clone: its root on the path, for the experiments package
+sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+from experiments.bench import git_state  # noqa: E402
 from halo_jax.cli import view
 
 FLAGS = flags.FLAGS
@@ -165,7 +167,7 @@ def main(argv):
       print(f"{kind}: first image {results[kind]['first_image_s_max']:.2f} s at worst, "
             f"settled ({FLAGS.size} px) {results[kind]['settled_s_max']:.2f} s, {png}")
     browser.close()
-  record = {"kinds": results, "provenance": provenance.collect()}
+  record = {"kinds": results, "provenance": git_state.collect()}
   with open(os.path.join(ROOT, FLAGS.out), "w") as f:
     json.dump(record, f, indent=1)
   with open(os.path.join(ROOT, "docs", "results", "viewer_latency.md"), "w") as f:

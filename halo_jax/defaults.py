@@ -307,7 +307,7 @@ def _eval():
       flicker_frames=24,   # dynamic scenes: frames of the fixed-camera video for flicker
       # The method's training seconds at which each stage saves its parameters
       # for the error-against-time front, scored after training on every
-      # held-out view (halo_jax/front.py); () for none.
+      # held-out view (experiments/bench/front_scores.py); () for none.
       front_s=(),
   ))
 

@@ -73,7 +73,8 @@ def _run(config, workdir, dataset, pacer):
   # seconds (halo_jax/protocol.py), which place the next stage's front points
   states, infos, wall, spent = {}, {}, 0.0, 0.0
   heldout_constant = None  # the best constant image's PSNR on the held-out views
-  until = budget.shares_until(config) if config.protocol == "budget" else {}
+  origin = provenance.collect()  # once a run: every stage's info carries it
+  until = protocol.shares_until(config) if config.protocol == "budget" else {}
   for name in needed(config):
     if name not in run_now:
       states[name], info = _restore(config, name, dataset, workdir)
@@ -96,7 +97,7 @@ def _run(config, workdir, dataset, pacer):
                                                  config[name].collapse.margin_db)
     save(workdir, state)
     if parallel.is_primary():
-      info["provenance"] = provenance.collect()
+      info["provenance"] = origin
       with open(_info_path(workdir, name), "w") as f:
         json.dump(info, f, indent=1)
     states[name], infos[name] = state, info

@@ -157,16 +157,32 @@ def _span_schedules(cfg):
   cfg.steps = length
 
 
+def split(config, total: float) -> dict:
+  """{stage: its part of `total`}: the one split of a budget (seconds, or a
+  step count) over the stages config.final_stage needs, by budget_shares."""
+  shares = {n: config.budget_shares[n] for n in needed(config, config.final_stage)}
+  whole = sum(shares.values())
+  return {n: total * share / whole for n, share in shares.items()}
+
+
+def shares_until(config) -> dict:
+  """{stage: budget seconds of the method's stages up to and including it}."""
+  until, acc = {}, 0.0
+  for name, part in split(config, config.budget_s).items():
+    acc += part
+    until[name] = acc
+  return until
+
+
 def _budget_steps(config):
   """Each stage's budget_steps from the step table (module docstring)."""
-  names = needed(config, config.final_stage)
-  shares = {n: config.budget_shares[n] for n in names}
   table = step_table.load(config.get("step_table", ""))
-  total = sum(shares.values())
+  parts = split(config, config.budget_s)
+  names = list(parts)
   until, spent, measuring = 0.0, 0.0, False
   for name in names:
     cfg = config[name]
-    until += config.budget_s * shares[name] / total
+    until += parts[name]
     entry = None if measuring else table.get(step_table.key(config, name))
     if entry is None:  # this machine measures it (stages/loop.py); so do the stages after it
       measuring = True

@@ -1,7 +1,7 @@
 """One method's training run on one scene, as a small result record.
 
 Shared by the compare command (halo_jax/cli/compare.py) and
-halo_jax/bench/benchmark.py: the record
+experiments/bench/benchmark.py: the record
 holds the held-out metrics (mean and per view), the held-out PSNR curve
 against training seconds, each stage's steps and seconds, and provenance.
 """

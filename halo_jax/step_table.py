@@ -1,7 +1,7 @@
 """The committed table of step times behind the 'budget' protocol
 (halo_jax/protocol.py): seconds per training step and seconds of set-up work
 (rendering Lo-NeRF's targets or banks) of each stage, measured on one
-reference machine by `halo-steps` (halo_jax/bench/step_times.py).
+reference machine by `python experiments/step_times.py` (experiments/bench/step_times.py).
 
 An entry's key is what sets a step's time, not a scene's name:
 
@@ -12,7 +12,7 @@ the fields that change what a step computes but not how long it takes
 (rates, schedules, caps, logging, weights' values; a term's being on or off
 stays in). A new scene of a known kind and size (chair beside lego) finds
 lego's entry; a change of batch, samples, width or sampler makes a new key,
-which `halo-steps` measures (until then, runs of it measure themselves).
+which `python experiments/step_times.py` measures (until then, runs of it measure themselves).
 The ray field's set-up renders Lo-NeRF's targets for every training pixel up
 to `target_rays`, so its key also holds the number of training views.
 """
@@ -21,7 +21,7 @@ import hashlib
 import json
 import os
 
-from halo_jax import atomic, config_files
+from halo_jax import config_files
 
 TABLE = os.path.join(os.path.dirname(__file__), "step_table.json")
 
@@ -84,10 +84,3 @@ def machine(path: str = "") -> dict:
   """The reference machine the table was measured on (its 'machine' record)."""
   return dict(_read(path or TABLE).get("machine", {}))
 
-
-def write(path: str, entries: dict, machine_record: dict) -> None:
-  """Writes the table (sorted, so a re-measure diffs line by line)."""
-  _read.cache_clear()
-  atomic.write_text(path, json.dumps(
-      {"machine": machine_record, "entries": dict(sorted(entries.items()))},
-      indent=1, sort_keys=True) + "\n")

@@ -8,7 +8,7 @@ import sys
 import pytest
 
 REPO = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..")
-from halo_jax.bench import ablations, adopt  # pylint: disable=g-import-not-at-top
+from experiments.bench import ablations, adopt  # pylint: disable=g-import-not-at-top
 
 
 def _write(path, rec):

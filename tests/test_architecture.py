@@ -24,8 +24,8 @@ LAYERS = (
      "workdir_lock"},
     {"stages", "frequency.tuning", "validate", "methods", "configure", "pipeline", "user_errors",
      "protocol",
-     "restore", "runs", "frequency.calibration", "front", "viewer"},
-    {"cli", "integrations", "bench"},
+     "restore", "runs", "viewer"},
+    {"cli", "integrations"},
 )
 
 

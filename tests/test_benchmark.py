@@ -7,7 +7,7 @@ import pytest
 
 from halo_jax import configure, datasets  # pylint: disable=g-import-not-at-top
 from halo_jax.stages import collapse  # pylint: disable=g-import-not-at-top
-from halo_jax.bench import benchmark, suites  # pylint: disable=g-import-not-at-top
+from experiments.bench import benchmark, suites  # pylint: disable=g-import-not-at-top
 
 
 def test_cpu_plan_is_seed_major_and_complete():
@@ -131,7 +131,7 @@ def test_smoke_suite_writes_and_skips(tmp_path):
 def test_the_budget_studys_suites_are_the_validation_suite_at_other_budgets(tmp_path):
   # the 60- and 960-s points differ from the validation suite's 240-s runs in
   # the budget alone: same terms, same scene configs, one scene of each kind
-  from halo_jax.bench import benchmark, suites
+  from experiments.bench import benchmark, suites
   from halo_jax.configure import set_field
   assert suites.BUDGET_STUDY == {"budget_60": 60.0, "validation": 240.0, "budget_960": 960.0}
   kinds = set()

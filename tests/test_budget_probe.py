@@ -1,4 +1,4 @@
-"""The budget study's probe (halo_jax/bench/budget_probe.py): its window
+"""The budget study's probe (experiments/bench/budget_probe.py): its window
 figures against a hand count, L_empty's share against its arithmetic, and,
 end to end on the smoke suite, its re-renders against the runs' own scores."""
 import json
@@ -8,7 +8,7 @@ import ml_collections
 import numpy as np
 import pytest
 
-from halo_jax.bench import budget_probe
+from experiments.bench import budget_probe
 
 
 def test_window_facts_count_what_the_window_holds():
@@ -46,7 +46,7 @@ def test_empty_share_is_the_weighted_term_over_the_loss(tmp_path):
 
 @pytest.mark.slow
 def test_probe_renders_the_runs_as_they_scored_themselves(tmp_path):
-  from halo_jax.bench import benchmark, suites
+  from experiments.bench import benchmark, suites
   results, scratch = str(tmp_path / "results"), str(tmp_path / "scratch")
   scene = suites.SMOKE.scenes[0]
   assert budget_probe.probe_run("smoke", "budget", scene, 0, results, scratch) is None

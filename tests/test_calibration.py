@@ -1,7 +1,7 @@
 """Leave-one-scene-out calibration of the frequency threshold on constructed grids."""
 import pytest
 
-from halo_jax.frequency import calibration
+from experiments.bench import frequency_calibration as calibration
 
 HI = 512.0  # Hi-NeRF's L=10, s=1
 POINTS = [(10, 1.0), (7, 1.0), (5, 1.0), (4, 1.0), (5, 4.0), (5, 16.0)]

@@ -1,10 +1,10 @@
-"""halo_jax/bench/code_version.py: records pool by the fingerprint their code measures."""
+"""experiments/bench/code_version.py: records pool by the fingerprint their code measures."""
 import subprocess
 
 import pytest
 
-from halo_jax.bench import code_version
-from halo_jax import provenance
+from experiments.bench import code_version
+from experiments.bench import git_state
 
 
 def _git(*args):
@@ -43,7 +43,7 @@ def test_records_pool_by_fingerprint_and_the_rest_is_set_aside(tmp_path):
   table_path = str(tmp_path / "fingerprints.json")
   code_version.record(head, FIGURES, views=1, path=table_path)
   table = code_version.load(table_path)
-  tree = provenance.code_tree(head)
+  tree = git_state.code_tree(head)
   assert table[tree]["methods"]["halo"] == code_version.of_runs(FIGURES, "halo")
 
   def rec(method, **git):
@@ -71,11 +71,11 @@ def test_a_code_tree_changes_exactly_when_the_training_code_does():
   touched = _git("log", "-n", "1", "--format=%H", head, "--", "halo_jax").strip()
   untouched = [c for c in _git("log", "-n", "40", "--format=%H", head).split()
                if not _git("diff", "--name-only", f"{c}~1", c, "--",
-                           *provenance.TRAINING_CODE)]
-  assert provenance.code_tree(touched) != provenance.code_tree(f"{touched}~1")
+                           *git_state.TRAINING_CODE)]
+  assert git_state.code_tree(touched) != git_state.code_tree(f"{touched}~1")
   if untouched:
     c = untouched[0]
-    assert provenance.code_tree(c) == provenance.code_tree(f"{c}~1")
+    assert git_state.code_tree(c) == git_state.code_tree(f"{c}~1")
 
 
 def test_a_change_to_the_committed_step_table_is_reported(tmp_path):

@@ -19,19 +19,22 @@ def test_shipped_configs_resolve_from_anywhere(tmp_path, monkeypatch):
   assert c.method == "freenerf" and c.data.procedural_scene == "lattice"
 
 
-def test_the_command_line_sets_its_overrides_after_the_method(monkeypatch):
+def test_the_command_line_sets_its_overrides_after_the_method():
   """--config names the scene, --method the method; --config.* overrides are
   set after the method, so they win over what it sets (nerf_paper's 1024 rays
-  a batch here), and fields the command line leaves alone are the method's."""
+  a batch here), and fields the command line leaves alone are the method's.
+  The file is read by configure.load_scene, the loader of every entry point."""
+  from absl import flags  # pylint: disable=g-import-not-at-top
+  from ml_collections import config_flags  # pylint: disable=g-import-not-at-top
   from halo_jax import cli  # pylint: disable=g-import-not-at-top
-  scene = configure.load_scene("blender.py:lego_8view_cpu")
-  scene.hi.batch_rays, scene.seed = 64, 3     # as config_flags leaves the scene
-  overrides = {"hi": {"batch_rays": 64}, "seed": 3}
-  monkeypatch.setattr(cli.config_flags, "get_override_values", lambda flag: overrides)
-  flag = type("ConfigFlag", (), {"value": scene})()
-  c = cli.config_of_flags(flag, "nerf_paper")
+  argv = config_files.resolve_argv(["prog", "--config=blender.py:lego_8view_cpu",
+                                    "--config.hi.batch_rays=64", "--config.seed=3"])
+  fv = flags.FlagValues()
+  config_flags.DEFINE_config_file("config", None, "scene", flag_values=fv, sys_argv=argv)
+  fv(argv)
+  c = cli.config_of_flags(fv["config"], "nerf_paper")
   assert (c.method, c.hi.batch_rays, c.seed, c.hi.sampler.kind) == ("nerf_paper", 64, 3,
                                                                      "coarse_fine")
   assert configure.load("blender.py:lego_8view_cpu", "nerf_paper").hi.batch_rays == 1024
-  assert cli.config_of_flags(flag, "halo").stages == "lo,ray,hi"
-  assert scene.method == ""   # the scene itself is left as it was
+  assert cli.config_of_flags(fv["config"], "halo").stages == "lo,ray,hi"
+  assert fv["config"].value.method == ""   # the flag's own scene is left as it was

@@ -1,4 +1,4 @@
-"""The fingerprint run (halo_jax/bench/fingerprint.py): the CPU suite's run at
+"""The fingerprint run (experiments/bench/fingerprint.py): the CPU suite's run at
 shrunk sizes, every stage past every switch the suite's run crosses, on the
 'budget' protocol's reference clock; and the table of fingerprints
 (code_version.py) across definitions."""
@@ -10,7 +10,7 @@ import sys
 import pytest
 
 from halo_jax import config_files, protocol, step_table
-from halo_jax.bench import code_version, fingerprint, suites
+from experiments.bench import code_version, fingerprint, suites
 from halo_jax.stages import collapse
 from halo_jax.stages.order import needed
 
@@ -75,8 +75,8 @@ def test_a_definition_replaces_the_earlier_one_and_current_is_judged_within_it(t
                           text=True, check=True).stdout.strip()
   except (OSError, subprocess.CalledProcessError):
     pytest.skip("not a git checkout")
-  from halo_jax import provenance
-  tree = provenance.code_tree(head)
+  from experiments.bench import git_state
+  tree = git_state.code_tree(head)
   path = str(tmp_path / "fingerprints.json")
   old = {tree: {"commit": head, "methods": {"halo": "aaaaaaaaaaaa", "freenerf": "bbbbbbbbbbbb"},
                 "commit_time": "2000-01-01"},

@@ -8,7 +8,7 @@ import pytest
 
 from conftest import pipeline_config
 from halo_jax import pipeline
-from halo_jax import front
+from experiments.bench import front_scores as front
 from halo_jax.registry import ConfigError
 from halo_jax.stages import snapshots
 from halo_jax import validate

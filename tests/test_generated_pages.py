@@ -9,7 +9,7 @@ import subprocess
 import pytest
 
 from experiments import faults
-from halo_jax.bench import (ablations, budget_report, calibrate_frequency, code_version,
+from experiments.bench import (ablations, budget_report, calibrate_frequency, code_version,
                             gpu_report, method_table, report, throughput_report)
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))

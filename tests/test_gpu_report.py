@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from experiments import rescore_renders
-from halo_jax.bench import gpu_report
+from experiments.bench import gpu_report
 
 
 def _run(seed, methods):

@@ -368,7 +368,7 @@ def test_the_joint_scheme_is_a_method():
 def test_the_method_table_in_the_docs_is_generated_from_the_configs():
   import sys  # pylint: disable=g-import-not-at-top
   sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
-  from halo_jax.bench import method_table  # pylint: disable=g-import-not-at-top
+  from experiments.bench import method_table  # pylint: disable=g-import-not-at-top
   page = open(os.path.join(os.path.dirname(__file__), "..", "docs", "baselines.md")).read()
   assert method_table.splice(page, method_table.generate()) == page, (
       "docs/baselines.md is stale: run python experiments/method_table.py")

@@ -52,7 +52,7 @@ def test_a_toy_method_runs_through_train_compare_and_the_smoke_suite(tmp_path, m
   assert "| toy |" in out.stdout
   # the benchmark's smoke suite, in this process: the module imported is the
   # whole change
-  from halo_jax.bench import benchmark, suites  # pylint: disable=import-outside-toplevel
+  from experiments.bench import benchmark, suites  # pylint: disable=import-outside-toplevel
   from halo_jax.methods import METHODS  # pylint: disable=import-outside-toplevel
   # the registry as it was once the test ends (other tests list every method)
   monkeypatch.setattr(METHODS, "_entries", dict(METHODS._entries))  # pylint: disable=protected-access

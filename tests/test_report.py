@@ -4,7 +4,7 @@ import os
 
 import numpy as np
 
-from halo_jax.bench import fronts_report, report, suite_tables
+from experiments.bench import fronts_report, report, suite_tables
 
 
 def _record(psnr, curve, steps=100):
@@ -159,7 +159,7 @@ def test_goals_met_only_at_the_stated_margin(tmp_path):
 
 
 def test_frequency_calibration_report_from_result_files(tmp_path):
-  from halo_jax.bench import calibrate_frequency  # pylint: disable=g-import-not-at-top
+  from experiments.bench import calibrate_frequency  # pylint: disable=g-import-not-at-top
   results, docs = tmp_path / "frequency", str(tmp_path / "docs")
   os.makedirs(results)
   points = [(10, 1.0), (7, 1.0), (5, 1.0), (4, 1.0)]
@@ -283,7 +283,7 @@ def test_front_table_gives_seconds_to_the_baselines_end(tmp_path):
 
 
 def test_frequency_calibration_on_validation_views_reads_no_test_view():
-  from halo_jax.bench import calibrate_frequency, suites  # pylint: disable=g-import-not-at-top
+  from experiments.bench import calibrate_frequency, suites  # pylint: disable=g-import-not-at-top
   by = {s.name: s for s in calibrate_frequency.VALIDATION_SCENES}
   assert "knights" not in by and {"thin", "sparse", "dnerf_hellwarrior"} <= set(by)
   lego = calibrate_frequency.configure(by["lego_8view"], 300, "/tmp/unused", validation=True)
@@ -308,7 +308,7 @@ def _budget_record(psnr, config, curve=(), train=()):
 
 def test_budget_study_reads_the_lead_and_where_the_baseline_stops_improving(tmp_path,
                                                                           monkeypatch):
-  from halo_jax.bench import budget_report
+  from experiments.bench import budget_report
   # a study of one scene here; the README's line waits for every scene of the study
   monkeypatch.setattr(budget_report.suites, "BUDGET_SCENES", ("lego_8view", "knights"))
   assert budget_report.readme_sentence({60.0: {}, 960.0: {}}) == ""
@@ -346,7 +346,7 @@ def test_budget_study_reads_the_lead_and_where_the_baseline_stops_improving(tmp_
 
 
 def test_budget_study_says_what_its_probes_measured(tmp_path, monkeypatch):
-  from halo_jax.bench import budget_report
+  from experiments.bench import budget_report
   monkeypatch.setattr(budget_report.suites, "BUDGET_SCENES", ("lego_8view",))
   folder = tmp_path / "results" / "budget_960" / "probe" / "lego_8view"
   folder.mkdir(parents=True)
@@ -393,7 +393,7 @@ def test_budget_study_says_what_its_probes_measured(tmp_path, monkeypatch):
 
 
 def test_the_readme_groups_the_scenes_by_the_budgets_halo_leads_at():
-  from halo_jax.bench import budget_report
+  from experiments.bench import budget_report
   rec = lambda p: [{"psnr": p}]  # noqa: E731
   pair = lambda h, n: {"halo": rec(h), "nerf_tuned": rec(n)}  # noqa: E731
   by_budget = {60.0: {"a": pair(21, 20), "b": pair(19, 20), "c": pair(18, 20), "d": pair(22, 20)},

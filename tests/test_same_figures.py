@@ -22,7 +22,7 @@ def _smoke(out, core):
   """Runs the smoke suite into `out` on one core; {run: record}."""
   env = dict(os.environ, HALO_DATA=str(out / "no_data"))
   res = subprocess.run(
-      [sys.executable, "-m", "halo_jax.bench.benchmark", "--suite=smoke",
+      [sys.executable, "-m", "experiments.bench.benchmark", "--suite=smoke",
        f"--results={out / 'results'}", f"--scratch={out / 'scratch'}"],
       cwd=REPO, env=env, capture_output=True, text=True, timeout=900, preexec_fn=_pin(core))
   assert res.returncode == 0, res.stderr[-3000:]

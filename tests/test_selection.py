@@ -1,7 +1,7 @@
-"""halo_jax/bench/selection.py: --only picks runs by name, and says why it picks none."""
+"""experiments/bench/selection.py: --only picks runs by name, and says why it picks none."""
 import pytest
 
-from halo_jax.bench import selection
+from experiments.bench import selection
 
 RUNS = [("lego", "halo", 0), ("lego", "halo+unseen", 0), ("fern", "halo", 1)]
 

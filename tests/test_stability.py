@@ -1,11 +1,11 @@
-"""The stability suite (halo_jax/bench/stability_cases.py): every stiff case within its
+"""The stability suite (experiments/bench/stability_cases.py): every stiff case within its
 tolerance of a closed form or float64 reference, every value and gradient finite."""
 import jax.numpy as jnp
 import numpy as np
 import pytest
 
 from halo_jax import encoding
-from halo_jax.bench import stability_cases as stability
+from experiments.bench import stability_cases as stability
 
 
 @pytest.mark.parametrize("case", stability.CASES, ids=lambda c: c.__name__)

@@ -5,7 +5,7 @@ import subprocess
 
 import pytest
 
-from halo_jax.bench import run_file, throughput_report
+from experiments.bench import run_file, throughput_report
 
 
 def _record(time_utc, commit, ms, peak=400.0, dirty=False, overrides=None):

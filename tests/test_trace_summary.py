@@ -1,10 +1,10 @@
-"""halo_jax/bench/trace_summary.py: the union of kernel intervals, kernel kinds,
+"""experiments/bench/trace_summary.py: the union of kernel intervals, kernel kinds,
 and a real trace of a jitted step on the CPU."""
 import jax
 import jax.numpy as jnp
 import pytest
 
-from halo_jax.bench import trace_summary
+from experiments.bench import trace_summary
 
 
 def test_union_counts_overlaps_once():

@@ -25,13 +25,22 @@ def define_method_flag():
                     "The method trained on --config's scene (halo_jax/methods).")
 
 
+def define_config_flag(help_string: str = "Scene config (path[:variant])."):
+  """--config: a scene config file, with its dotted overrides as
+  --config.<field>=VALUE (ml_collections parses and type-checks them)."""
+  config_flags.DEFINE_config_file("config", None, help_string, lock_config=True)
+
+
 def config_of_flags(config_flag, method: str):
-  """--config's scene made into `method`, with --config's dotted overrides
-  set again after the method (config_flags set them on the scene, before the
-  method existed), so that an override wins over what the method sets.
-  config_flag: FLAGS['config']."""
+  """--config's scene, read by configure.load_scene (the one loader of every
+  entry point) with --config's dotted overrides set, made into `method`, with
+  the overrides set again after the method, so that an override wins over
+  what the method sets. config_flag: FLAGS['config']."""
   overrides = config_files.dotted_fields(config_flags.get_override_values(config_flag))
-  return configure.as_method(config_flag.value, method, overrides)
+  scene = configure.load_scene(config_flags.get_config_filename(config_flag))
+  for field, value in overrides.items():  # the scene a method reads, as overridden
+    configure.set_field(scene, field, value)
+  return configure.as_method(scene, method, overrides)
 
 
 @contextlib.contextmanager

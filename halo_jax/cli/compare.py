@@ -24,18 +24,16 @@ import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # pylint: disable=g-import-not-at-top
-from ml_collections import config_flags
 
 from halo_jax import config_files, datasets, methods, pipeline, runs, tables
-from halo_jax.cli import config_of_flags, launch
+from halo_jax.cli import config_of_flags, define_config_flag, launch
 
 FLAGS = flags.FLAGS
 
 
 def define_flags():
   """The command's flags, defined on launch (the tests import this module)."""
-  config_flags.DEFINE_config_file("config", None, "Scene config (path[:variant]).",
-                                  lock_config=True)
+  define_config_flag()
   flags.DEFINE_string("workdir", None, "Output folder.")
   flags.DEFINE_bool("all_views_reference", False, "Also train NeRF on all training views.")
   flags.DEFINE_integer("curve_points", 4, "Held-out evaluations per method for the curve.")

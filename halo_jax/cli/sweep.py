@@ -17,11 +17,10 @@ import json
 import os
 
 from absl import app, flags
-from ml_collections import config_flags
 
 from halo_jax import config_files, configure, datasets, pipeline, plots, progress, stages, tables
 from halo_jax.frequency import tuning
-from halo_jax.cli import config_of_flags, define_method_flag, launch
+from halo_jax.cli import config_of_flags, define_config_flag, define_method_flag, launch
 from halo_jax.stages import radiance
 
 FLAGS = flags.FLAGS
@@ -29,8 +28,7 @@ FLAGS = flags.FLAGS
 
 def define_flags():
   """The command's flags, defined on launch (the tests import this module)."""
-  config_flags.DEFINE_config_file("config", None, "Base config (path[:variant]).",
-                                  lock_config=True)
+  define_config_flag("Base config (path[:variant]).")
   flags.DEFINE_string("workdir", None, "Output folder.")
   define_method_flag()
   flags.DEFINE_multi_string("sweep", [], "field=v1,v2,... (repeat for a product).")

@@ -8,14 +8,12 @@ This file is kept short: the logic lives in `halo_jax.pipeline`.
 import json
 
 from absl import app, flags
-from ml_collections import config_flags
 
 from halo_jax import config_files, parallel, pipeline
-from halo_jax.cli import config_of_flags, define_method_flag, launch, view
+from halo_jax.cli import config_of_flags, define_config_flag, define_method_flag, launch, view
 
 FLAGS = flags.FLAGS
-config_flags.DEFINE_config_file("config", None, "Config file (path[:variant]).",
-                                lock_config=True)
+define_config_flag()
 flags.DEFINE_string("workdir", None, "Folder for checkpoints, logs and renders.")
 flags.DEFINE_bool("view", False, "Also open halo-view on the run, in a process of its own.")
 flags.DEFINE_integer("view_port", 8080, "The viewer's port (with --view).")

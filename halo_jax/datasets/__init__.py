@@ -132,6 +132,13 @@ def spec_of(data_cfg) -> DatasetSpec:
   return LOADERS.get(data_cfg.kind, "data.kind")
 
 
+def scene_kind(data_cfg) -> str:
+  """'sphere', 'ndc', 'two_plane' (the geometry of `data.kind`'s rays) or
+  'dynamic' (a scene in time): the kind a method's recipe is chosen by."""
+  spec = spec_of(data_cfg)
+  return "dynamic" if spec.dynamic else spec.geometry.value
+
+
 def load(cfg, workdir: str = "") -> Dataset:
   """Loads the scene `cfg.kind` (a LOADERS entry) as the data config describes."""
   spec = spec_of(cfg)

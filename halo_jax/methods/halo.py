@@ -108,18 +108,12 @@ def two_plane(c):
   c.hi.empty.weight = 0.0   # every pixel is the scene: no background
 
 
-def scene_kind(c) -> str:
-  """'sphere', 'ndc', 'dynamic' or 'two_plane': the row of the table above."""
-  spec = datasets.spec_of(c.data)
-  return "dynamic" if spec.dynamic else spec.geometry.value
-
-
 KINDS = {"sphere": sphere, "ndc": ndc, "dynamic": dynamic, "two_plane": two_plane}
 assert set(KINDS) == {"dynamic"} | {g.value for g in geometry.Geometry}
 
 
 def apply(c):
-  KINDS[scene_kind(c)](c)
+  KINDS[datasets.scene_kind(c.data)](c)
   return c
 
 

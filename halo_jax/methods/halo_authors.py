@@ -56,7 +56,7 @@ import math
 
 import os
 
-from halo_jax import defaults, geometry
+from halo_jax import datasets, defaults, geometry
 from halo_jax.methods import base, halo
 
 WINDOW_FINAL = 0.5          # their epi_converge_range: the window's final width share
@@ -217,7 +217,7 @@ KINDS = {"two_plane": two_plane, "ndc": ndc, "sphere": sphere}
 
 
 def apply(c):
-  KINDS[halo.scene_kind(c)](c)   # the method's geometries keep it to these kinds
+  KINDS[datasets.scene_kind(c.data)](c)   # the method's geometries keep it to these kinds
   return c
 
 

@@ -13,28 +13,15 @@ import math
 import os
 
 from halo_jax import frozen
-from halo_jax.stages.order import needed
 
 # steps a self-measuring stage times after compilation before fixing its count
 MEASURE_STEPS = 20
 
 
-def shares_until(config) -> dict:
-  """{stage: budget seconds of the method's stages up to and including it},
-  config.budget_s split by budget_shares over the stages config.final_stage needs."""
-  names = needed(config, config.final_stage)
-  total = sum(config.budget_shares[n] for n in names)
-  until, acc = {}, 0.0
-  for n in names:
-    acc += config.budget_s * config.budget_shares[n] / total
-    until[n] = acc
-  return until
-
-
 def measured_share(config, name, until, spent):
   """The config stage `name` trains with: for a self-measuring stage, a new
   value whose `max_seconds` is what is left of the budget up to it (`until`,
-  shares_until's) after `spent` reference seconds of the stages before it;
+  protocol.shares_until's) after `spent` reference seconds of the stages before it;
   otherwise `config` itself. The run's config is never edited."""
   if config[name].max_seconds and name in until:
     return frozen.replaced(config, {f"{name}.max_seconds": max(until[name] - spent, 1e-3)})

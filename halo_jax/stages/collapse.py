@@ -172,7 +172,3 @@ def collapsed(info: dict) -> bool:
   """Whether a stage's info (pipeline) carries a collapsed verdict."""
   return (info.get("learned") or {}).get("verdict") == COLLAPSED
 
-
-def heldout_collapsed(info: dict) -> bool:
-  """Whether a stage's info renders no better than a constant on held-out views."""
-  return (info.get("heldout_learned") or {}).get("verdict") == COLLAPSED

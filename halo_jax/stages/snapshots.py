@@ -1,6 +1,6 @@
 """A stage's parameters saved at given training times of its method: the
 points of the run's error-against-time front, scored after training
-(halo_jax/front.py) so that scoring never counts as training time.
+(experiments/bench/front_scores.py) so that scoring never counts as training time.
 
 Times are the method's reference seconds (earlier stages included, the
 loop's `clock`: under a budget the step table's, so a point falls at the

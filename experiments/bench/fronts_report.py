@@ -1,6 +1,6 @@
 """Error-against-time fronts in the benchmark's report: per scene, each
 method's held-out PSNR (and LPIPS) at the training seconds its run saved
-(halo_jax/front.py), the seconds each needs to reach nerf_tuned's
+(experiments/bench/front_scores.py), the seconds each needs to reach nerf_tuned's
 final PSNR, its figures, and the README's fronts table.
 
 A record's front is its list of points {'at_s', 'wall_s', 'psnr', 'lpips',
@@ -12,8 +12,8 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # pylint: disable=g-import-not-at-top
 import numpy as np  # pylint: disable=g-import-not-at-top
 
-from halo_jax.bench import code_version  # pylint: disable=g-import-not-at-top
-from halo_jax.bench.report_common import (  # pylint: disable=g-import-not-at-top
+from experiments.bench import code_version  # pylint: disable=g-import-not-at-top
+from experiments.bench.report_common import (  # pylint: disable=g-import-not-at-top
     BASELINE, in_method_order, mean_pm)
 
 

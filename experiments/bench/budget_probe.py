@@ -26,7 +26,7 @@ results/<suite>/probe/<scene>/seed<k>.json that the budget study's page
 reads; it needs the runs' workdirs (their --scratch), so it runs on the
 machine that trained them:
 
-  python -m halo_jax.bench.budget_probe --suite=budget_960 --scratch=/tmp/bud_s0
+  python -m experiments.bench.budget_probe --suite=budget_960 --scratch=/tmp/bud_s0
 """
 import copy
 import math
@@ -37,10 +37,11 @@ from absl import flags, logging
 import jax
 import numpy as np
 
-from halo_jax import metrics, progress, provenance, raycast, restore, samplers
-from halo_jax.bench import run_file, selection, suites, tool
-from halo_jax.bench.paths import REPO, result_path, workdir_of
-from halo_jax.bench.report_common import BASELINE
+from halo_jax import metrics, progress, raycast, restore, samplers
+from experiments.bench import git_state
+from experiments.bench import run_file, selection, suites, tool
+from experiments.bench.paths import REPO, result_path, workdir_of
+from experiments.bench.report_common import BASELINE
 from halo_jax.geometry import Geometry
 from halo_jax.stages import base, metrics_log, radiance
 
@@ -238,7 +239,7 @@ def probe_run(suite_name, mode, scene, seed, results, scratch):
              runs={m: {"code_tree": r["provenance"]["git"].get("code_tree"),
                        "commit": r["provenance"]["git"]["commit"]}
                    for m, r in zip((METHOD, BASELINE), records)},
-             provenance=provenance.collect(measure_peak=False))
+             provenance=git_state.collect(measure_peak=False))
   run_file.write_json(probe_path(results, suite_name, scene.name, seed), out)
   return out
 
@@ -277,7 +278,7 @@ def main(argv):
 
 
 def cli():
-  """The console script's entry point."""
+  """The tool's entry point (python experiments/<tool>.py)."""
   define_flags()
   tool.run(sys.modules[__name__], main)
 

@@ -38,10 +38,10 @@ import traceback
 
 from absl import flags, logging
 
-from halo_jax.bench import (adopt, benchmark, code_version, fronts_report, report_common,
-                            run_file, selection, suites, tool)
-from halo_jax.bench.paths import REPO
-from halo_jax.bench.studies import MATCHED_STEPS, STUDIES, Study, Variant  # noqa: F401
+from experiments.bench import (adopt, benchmark, code_version, fronts_report, git_state,
+                               report_common, run_file, selection, suites, tool)
+from experiments.bench.paths import REPO
+from experiments.bench.studies import MATCHED_STEPS, STUDIES, Study, Variant  # noqa: F401
 from halo_jax import progress, protocol, runs
 from halo_jax.configure import set_field
 
@@ -80,7 +80,7 @@ def matched_steps(results: str, scene: suites.Scene) -> dict:
   del results
   if scene.name not in MATCHED_STEPS:
     raise KeyError(f"no matched steps for scene {scene.name!r}: add it to "
-                   "halo_jax/bench/studies.py MATCHED_STEPS")
+                   "experiments/bench/studies.py MATCHED_STEPS")
   return dict(MATCHED_STEPS[scene.name])
 
 
@@ -110,7 +110,7 @@ def run_one(study_name, study, scene, variant, seed, results, scratch) -> dict:
   if same:
     record = dict(same[1], adopted_from=os.path.relpath(same[0], results))
   else:
-    record = runs.run_method(c, workdir)
+    record = git_state.stamp(runs.run_method(c, workdir))
   record.pop("per_view", None)
   if study.budget == "time" and study.front:
     record["front"] = benchmark.front_points(workdir, record, with_lpips=False)
@@ -323,7 +323,7 @@ def report(study_name: str, study: Study, results: str) -> str:
 
 def _fingerprint_lines(study: Study, recs) -> list:
   """Per variant, the code fingerprints of its method that its runs measure
-  (halo_jax/bench/code_version.py): a variant whose runs span two fingerprints,
+  (experiments/bench/code_version.py): a variant whose runs span two fingerprints,
   or whose tree was modified or never measured, says so. A study's overrides
   are not part of a fingerprint, so a change of a default the study sets
   itself can mark its runs as different code without moving them."""
@@ -391,7 +391,7 @@ def main(argv):
 
 
 def cli():
-  """The console script's entry point."""
+  """The tool's entry point (python experiments/<tool>.py)."""
   define_flags()
   tool.run(sys.modules[__name__], main)
 

@@ -1,14 +1,15 @@
 """A study's run that a suite has already made: the same resolved config and
 the same code fingerprint, so the same figures, adopted instead of trained
-again (halo_jax/bench/ablations.py)."""
+again (experiments/bench/ablations.py)."""
 import functools
 import json
 import os
 
 from absl import logging
 
-from halo_jax import config_files, defaults, protocol, provenance
-from halo_jax.bench import benchmark, code_version, suites
+from halo_jax import config_files, defaults, protocol
+from experiments.bench import git_state
+from experiments.bench import benchmark, code_version, suites
 
 UNVOUCHED = (code_version.MODIFIED, code_version.UNMEASURED)
 
@@ -53,7 +54,7 @@ def running_fingerprint(method: str, table: dict, config: str = "") -> str:
   code this process runs (its checkout's code tree in `table`);
   code_version.MODIFIED or UNMEASURED where it has none."""
   return code_version.of_record({"method": method, "config": config,
-                                 "provenance": {"git": provenance.git_state()}}, table)
+                                 "provenance": {"git": git_state.git_state()}}, table)
 
 
 def identical_suite_run(c, scene, method, seed, results, table=None, mine_fp=None):

@@ -1,4 +1,4 @@
-"""Runs a benchmark suite (halo_jax/bench/suites.py): every scene x method x seed.
+"""Runs a benchmark suite (experiments/bench/suites.py): every scene x method x seed.
 
   python experiments/benchmark.py --suite=cpu [--mode=budget|steps] [--only=REGEX]
   python experiments/benchmark.py --suite=cpu --dry_run      # the plan and what is done
@@ -27,8 +27,8 @@ import traceback
 
 from absl import flags, logging
 
-from halo_jax.bench import run_file, selection, suites, tool
-from halo_jax.bench.paths import REPO, result_path, workdir_of  # the last two re-exported
+from experiments.bench import git_state, run_file, selection, suites, tool
+from experiments.bench.paths import REPO, result_path, workdir_of  # the last two re-exported
 from halo_jax import defaults, progress, protocol, runs
 from halo_jax.configure import load as method_config, set_field
 from halo_jax.stages import collapse
@@ -86,16 +86,15 @@ def configure(suite: suites.Suite, scene: suites.Scene, method: str, seed: int, 
   if mode not in ("budget", "steps"):
     raise ValueError(f"mode={mode!r}: must be 'budget' or 'steps'")
   names = pipeline.needed(c, c.final_stage)
-  shares = {n: c.budget_shares[n] for n in names}
-  total = sum(shares.values())
   if mode == "budget":
     protocol.budget(c, suite.budget_s)
     for n in names:  # on the reference clock: the same steps on any machine
       c[n].eval_every_s = suite.budget_s / suite.curve_points
   elif mode == "steps":
     protocol.steps(c)
+    parts = protocol.split(c, suite.steps)
     for n in names:
-      c[n].steps = max(1, round(suite.steps * shares[n] / total))
+      c[n].steps = max(1, round(parts[n]))
       # the curve's points evenly spread over the method's steps
       c[n].eval_every = max(1, int(suite.steps / suite.curve_points))
   return protocol.resolve(c)
@@ -122,8 +121,8 @@ def score_validation(workdir: str, record: dict, split: str) -> dict:
 
 def front_points(workdir: str, record: dict, with_lpips: bool) -> list:
   """The run's error-against-time front on all its held-out views
-  (halo_jax/front.py), ending with its final state's scores."""
-  from halo_jax import front
+  (experiments/bench/front_scores.py), ending with its final state's scores."""
+  from experiments.bench import front_scores as front
   last = list(record["stages"])[-1]
   final = {"at_s": round(record.get("reference_s") or record["wall_s"], 3),
            "wall_s": record["wall_s"], "stage": last,
@@ -142,7 +141,7 @@ def run_one(suite_name, suite, scene, method, seed, mode, results, scratch) -> d
   c = configure(suite, scene, method, seed, mode, scratch)
   workdir = workdir_of(scratch, suite_name, mode, scene, method, seed)
   start = time.time()
-  record = runs.run_method(c, workdir)
+  record = git_state.stamp(runs.run_method(c, workdir))
   if c.eval.front_s:
     record["front"] = front_points(workdir, record, c.eval.lpips)
   if scene.validation:
@@ -265,7 +264,7 @@ def main(argv):
 
 
 def cli():
-  """The console script's entry point."""
+  """The tool's entry point (python experiments/<tool>.py)."""
   define_flags()
   tool.run(sys.modules[__name__], main)
 

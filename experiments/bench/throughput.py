@@ -23,9 +23,10 @@ import jax.numpy as jnp
 import numpy as np
 from ml_collections import config_flags
 
-from halo_jax.bench import run_file, throughput_report, tool, trace_summary
-from halo_jax.bench.paths import REPO
-from halo_jax import camera, geometry, models, provenance, ray_fields
+from experiments.bench import run_file, throughput_report, tool, trace_summary
+from experiments.bench.paths import REPO
+from halo_jax import camera, geometry, models, ray_fields
+from experiments.bench import git_state
 from halo_jax import config_files, configure, raycast
 from halo_jax.cli import config_of_flags
 from halo_jax.rays import Pixels, Rays, Targets
@@ -42,7 +43,7 @@ flags.DEFINE_list("measure", ["lo", "ray", "hi", "nerf", "render"],
                   "Which steps to time (a subset for a quick sweep; the committed "
                   "measurements time all).")
 flags.DEFINE_bool("trace", False, "Also trace `repeats` steps of each measured step with "
-                  "jax.profiler and record where the device time goes (halo_jax/bench/trace_summary.py).")
+                  "jax.profiler and record where the device time goes (experiments/bench/trace_summary.py).")
 flags.DEFINE_integer("peak_n", 2048, "Size n of the n x n x n fp32 matmul that measures the "
                      "peak (2048 fills 2 CPU cores; a GPU needs 8192).")
 
@@ -235,7 +236,7 @@ def write_and_print(results, peak, overrides):
   results["overrides"] = {k: str(v) for k, v in overrides.items()}
   results["flags"] = {"repeats": FLAGS.repeats, "rounds": FLAGS.rounds, "peak_n": FLAGS.peak_n,
                       "measure": list(FLAGS.measure)}
-  results["provenance"] = provenance.collect(measure_peak=False)
+  results["provenance"] = git_state.collect(measure_peak=False)
   path = throughput_report.result_path(FLAGS.results, results)
   run_file.write_json(path, results)
   print(f"matmul peak: {peak:.0f} GFLOP/s fp32, {results['peak_bf16_gflops']:.0f} bf16 "
@@ -251,7 +252,7 @@ def write_and_print(results, peak, overrides):
 
 
 def cli():
-  """The console script's entry point."""
+  """The tool's entry point (python experiments/<tool>.py)."""
   tool.run(sys.modules[__name__], main)
 
 

@@ -26,7 +26,7 @@ import json
 import os
 
 from halo_jax import protocol, step_table
-from halo_jax.bench import benchmark, suites
+from experiments.bench import benchmark, suites
 from halo_jax.configure import set_field
 from halo_jax.stages import collapse, metrics_log
 from halo_jax.stages.order import needed
@@ -98,7 +98,7 @@ def fingerprint_table(config, counts: dict) -> dict:
     share_s = config.budget_s * shares[n] / total
     entries[step_table.key(config, n)] = {"step_s": share_s / counts[n], "setup_s": 0.0,
                                           "source": "fingerprint"}
-  return {"machine": {"source": "fingerprint run (halo_jax/bench/fingerprint.py)"},
+  return {"machine": {"source": "fingerprint run (experiments/bench/fingerprint.py)"},
           "entries": entries}
 
 

@@ -1,10 +1,10 @@
 """The step table (halo_jax/step_table.py): the reference seconds behind the
 'budget' protocol, and the command that measures it.
 
-  halo-steps --from_records        # the table from the CPU suite's committed runs
-  halo-steps                       # measure the keys the suites use that the table lacks
-  halo-steps --remeasure           # measure every key again (this machine becomes the reference)
-  halo-steps --dry_run             # which keys are there, which are missing
+  python experiments/step_times.py --from_records        # the table from the CPU suite's committed runs
+  python experiments/step_times.py                       # measure the keys the suites use that the table lacks
+  python experiments/step_times.py --remeasure           # measure every key again (this machine becomes the reference)
+  python experiments/step_times.py --dry_run             # which keys are there, which are missing
 
 The reference machine is the one that ran the CPU suite's seeds 0 and 1
 (results/cpu/time, 2026-11-26): `--from_records` takes each key's step time
@@ -36,8 +36,9 @@ import time
 
 from absl import flags, logging
 
-from halo_jax import pipeline, progress, protocol, provenance, step_table
-from halo_jax.bench import benchmark, selection, studies, suites, tool
+from halo_jax import atomic, pipeline, progress, protocol, step_table
+from experiments.bench import git_state
+from experiments.bench import benchmark, selection, studies, suites, tool
 
 FLAGS = flags.FLAGS
 RECORD_SEEDS = (0, 1)
@@ -46,7 +47,7 @@ RECORD_SEEDS = (0, 1)
 SUITES = (("cpu", suites.CPU, suites.CPU.scenes),
           ("validation", suites.CPU, suites.VALIDATION_SCENES),
           ("smoke", suites.SMOKE, suites.SMOKE.scenes),
-          # the authors' recipe in its studies (halo_jax/bench/studies.py),
+          # the authors' recipe in its studies (experiments/bench/studies.py),
           # with each study variant's changes to it
           ("authors", suites.CPU, tuple(
               dataclasses.replace(s, methods=("halo_authors",))
@@ -61,6 +62,15 @@ SUITES = (("cpu", suites.CPU, suites.CPU.scenes),
               dataclasses.replace(s, methods=(v.method,), overrides=s.overrides + v.overrides)
               for name, study in studies.STUDIES.items() if name in studies.BUDGET_STUDIES
               for v in study.variants if v.overrides for s in study.scenes)))
+
+
+
+def write_table(path: str, entries: dict, machine_record: dict) -> None:
+  """Writes the step table (sorted, so a re-measure diffs line by line)."""
+  step_table._read.cache_clear()  # pylint: disable=protected-access
+  atomic.write_text(path, json.dumps(
+      {"machine": machine_record, "entries": dict(sorted(entries.items()))},
+      indent=1, sort_keys=True) + "\n")
 
 
 def pairs(only: str = ""):
@@ -179,7 +189,7 @@ def main(argv):
   logging.set_verbosity(logging.WARNING)
   if FLAGS.from_records:
     entries = from_records(FLAGS.results)
-    step_table.write(FLAGS.table, entries, _records_machine(FLAGS.results))
+    write_table(FLAGS.table, entries, _records_machine(FLAGS.results))
     print(f"{len(entries)} keys from the records; the table at {FLAGS.table} was measured on "
           f"{_machine_line(step_table.machine(FLAGS.table))}")
     return
@@ -209,7 +219,7 @@ def main(argv):
     # a key two scenes share is measured once (--remeasure: the first one's)
     entries.update({k: v for k, v in measured.items() if k in missing})
     machine = step_table.machine(FLAGS.table) if ratio != 1.0 else _machine()
-    step_table.write(FLAGS.table, entries, machine)
+    write_table(FLAGS.table, entries, machine)
     done += 1
     print(f"measured {tag} in {time.time() - t0:.0f} s: " + ", ".join(
         f"{v['stage']} {v['step_s'] * 1e3:.1f} ms/step + {v['setup_s']:.1f} s"
@@ -219,7 +229,7 @@ def main(argv):
 
 
 def _machine() -> dict:
-  p = provenance.collect()
+  p = git_state.collect()
   return {"cpu": p["cpu"]["model"], "cores_used": 1, "host": p["host"],
           "matmul_peak_gflops": p["matmul_peak_gflops"], "versions": p["versions"],
           "commit": p["git"]["commit"], "dirty": p["git"]["dirty"], "time_utc": p["time_utc"],

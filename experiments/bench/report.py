@@ -17,7 +17,7 @@ figure per scene. The README's results block (between its
 from the same files. A "By stage" section sets each multi-stage method's
 Lo-NeRF beside its output and names every run whose later stage ended below
 an earlier one. Fronts (error against training time, the README's
-headline where a suite has them) are halo_jax/bench/fronts_report.py's. Nothing
+headline where a suite has them) are experiments/bench/fronts_report.py's. Nothing
 here is typed by hand.
 """
 import collections
@@ -31,12 +31,12 @@ import sys
 from absl import flags
 import numpy as np
 
-from halo_jax.bench import budget_report, code_version, fronts_report, report_common, tool
-from halo_jax.bench.paths import REPO
-from halo_jax.bench.report_common import (BASELINE, METHOD_ORDER, collapsed_methods,
+from experiments.bench import budget_report, code_version, fronts_report, report_common, tool
+from experiments.bench.paths import REPO
+from experiments.bench.report_common import (BASELINE, METHOD_ORDER, collapsed_methods,
                                           in_method_order, stat)
-from halo_jax.bench.suite_tables import (FAILURE_DROP_DB, claims, over_scenes_table,
-                                         plot_scene, provenance_lines, scene_kind,
+from experiments.bench.suite_tables import (FAILURE_DROP_DB, claims, over_scenes_table,
+                                         plot_scene, provenance_lines,
                                          scene_table, stage_table, summary_table,
                                          validation_table, scene_overrides)
 
@@ -123,7 +123,7 @@ def version_lines(versions):
   every run set aside (another fingerprint, an unmeasured or modified tree)."""
   out = ["## Code versions", "",
          "Each method's figures on this page pool only its runs of one code fingerprint "
-         "(`halo_jax/bench/code_version.py`: the hash of what the method's fingerprint runs, "
+         "(`experiments/bench/code_version.py`: the hash of what the method's fingerprint runs, "
          "short real runs of every stage on every scene kind, compute; measured per code tree "
          "by `experiments/same_numbers.py --record`). "
          "Current: the newest measured commit "
@@ -184,7 +184,7 @@ SUPERSEDED = {"time": (
     "**Superseded.** These runs trained for 240 s of this machine's wall-clock, so their "
     "step counts, and their figures, followed the machine's speed that day. They are kept "
     "because the step table of the `budget` protocol was built from seeds 0 and 1 "
-    "(`halo-steps --from_records`); the current figures are the `budget` mode's.")}
+    "(`python experiments/step_times.py --from_records`); the current figures are the `budget` mode's.")}
 # The suites and modes the README's headlines are computed from: the test
 # views, then the validation views (whose per-scene table is its page's).
 HEADLINES = (("cpu", "budget"), ("validation", "budget"))
@@ -258,7 +258,7 @@ def headline(scenes, method="halo", versions=None) -> str:
   behind = ", ".join(f"{s} ({d:+.2f})" for s, d in sorted(delta.items()) if d <= 0)
   kinds = collections.defaultdict(list)
   for s in both:
-    kinds[scene_kind(scenes[s][method][0]["config"])].append(delta[s])
+    kinds[code_version.kind_of(scenes[s][method][0]["config"])].append(delta[s])
   per_kind = ", ".join(f"{k} {np.mean(v):+.2f} ({len(v)})" for k, v in sorted(kinds.items()))
   return (f"{method} against {BASELINE} on the {len(both)} scenes both ran "
           f"({seeds[0] if len(seeds) == 1 else f'{seeds[0]}-{seeds[-1]}'} "
@@ -381,7 +381,7 @@ def main(argv):
 
 
 def cli():
-  """The console script's entry point."""
+  """The tool's entry point (python experiments/<tool>.py)."""
   define_flags()
   tool.run(sys.modules[__name__], main)
 

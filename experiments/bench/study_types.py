@@ -1,10 +1,10 @@
 """What a study is: scenes, variants (a method plus config overrides), a
-reference variant and seeds (halo_jax/bench/studies.py lists them,
+reference variant and seeds (experiments/bench/studies.py lists them,
 ablations.py runs them), and the overrides studies share."""
 import dataclasses
 from typing import Tuple
 
-from halo_jax.bench import suites
+from experiments.bench import suites
 
 
 @dataclasses.dataclass(frozen=True)

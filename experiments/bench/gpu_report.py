@@ -18,8 +18,8 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # pylint: disable=g-import-not-at-top
 import numpy as np  # pylint: disable=g-import-not-at-top
 
-from halo_jax.bench.paths import REPO  # pylint: disable=g-import-not-at-top
-from halo_jax.bench import report_common  # pylint: disable=g-import-not-at-top
+from experiments.bench.paths import REPO  # pylint: disable=g-import-not-at-top
+from experiments.bench import report_common  # pylint: disable=g-import-not-at-top
 from halo_jax import tables  # pylint: disable=g-import-not-at-top
 
 
@@ -121,7 +121,7 @@ def main():
 
 
 def cli():
-  """The console script's entry point."""
+  """The tool's entry point (python experiments/<tool>.py)."""
   main()
 
 

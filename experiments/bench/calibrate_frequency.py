@@ -6,7 +6,7 @@ leave-one-scene-out.
   python experiments/calibrate_frequency.py --report_only   # tables and figures from the files
   python experiments/calibrate_frequency.py --views=validation  # the grid scored on validation views
 
-For each scene (the CPU suite's scenes that have a Lo-NeRF: halo_jax/bench/suites.py)
+For each scene (the CPU suite's scenes that have a Lo-NeRF: experiments/bench/suites.py)
 every point of `tune.grid` trains a short Lo-NeRF (`--lo_steps`), scores rho on
 the scene's view pairs and Lo-NeRF's held-out PSNR (halo_jax/frequency/tuning.py). One
 small JSON per scene goes to results/frequency/<scene>.json (committed: a scene
@@ -24,10 +24,11 @@ import time
 
 from absl import flags, logging
 
-from halo_jax.bench import run_file, suites, tool
-from halo_jax.bench.paths import REPO
-from halo_jax import defaults, protocol, provenance
-from halo_jax.frequency import calibration
+from experiments.bench import run_file, suites, tool
+from experiments.bench.paths import REPO
+from halo_jax import defaults, protocol
+from experiments.bench import git_state
+from experiments.bench import frequency_calibration as calibration
 from halo_jax.configure import load as method_config, set_field
 
 FLAGS = flags.FLAGS
@@ -96,7 +97,7 @@ def run_scene(scene, lo_steps, scratch, results, validation=False):
                                   "collapsed")}
                for g in res["grid"]],
       "run_seconds": round(time.time() - start, 1),
-      "provenance": provenance.collect()}
+      "provenance": git_state.collect()}
   path = os.path.join(results, f"{scene.name}.json")
   run_file.write_json(path, record)
   return record
@@ -309,7 +310,7 @@ def main(argv):
 
 
 def cli():
-  """The console script's entry point."""
+  """The tool's entry point (python experiments/<tool>.py)."""
   define_flags()
   tool.run(sys.modules[__name__], main)
 

@@ -1,11 +1,11 @@
 """Which code made a result, judged by the numbers it makes: the fingerprint.
 
 A record names the commit its run started from and whether the tree was
-modified. The commit's code tree (provenance.code_tree: a hash of the
+modified. The commit's code tree (git_state.code_tree: a hash of the
 training code's files) names the code exactly, but two trees can make the
 same numbers (a refactor, a comment). So a tree's fingerprint is measured:
 `experiments/same_numbers.py --record` makes the fingerprint run
-(halo_jax/bench/fingerprint.py: a short real run of the 'budget' protocol,
+(experiments/bench/fingerprint.py: a short real run of the 'budget' protocol,
 every stage past every step switch) of every method on one CPU-suite scene
 of each kind, and hashes, per method, every logged loss, held-out figure,
 step count and collapse verdict. Records of one method pool when their fingerprints agree, and a record
@@ -32,8 +32,8 @@ import os
 import subprocess
 import time
 
-from halo_jax.bench.paths import REPO
-from halo_jax import provenance
+from experiments.bench.paths import REPO
+from experiments.bench import git_state
 
 FILE = os.path.join(REPO, "results", "fingerprints.json")
 
@@ -53,14 +53,16 @@ def load(path: str = FILE) -> dict:
 
 
 def kind_of(config: str) -> str:
-  """'configs/dnerf.py:hook_cpu' -> 'dnerf': a scene's kind is its config file,
-  and a fingerprint is measured per kind (one fingerprint scene each), so a
-  change of one kind's recipe leaves the other kinds' records current."""
+  """'configs/dnerf.py:hook_cpu' -> 'dnerf': a record's dataset, its config
+  file (the reports' grouping; halo_jax.datasets.scene_kind is the geometry a
+  recipe is chosen by). A fingerprint is measured per dataset (one
+  fingerprint scene each), so a change of one kind's recipe leaves the other
+  kinds' records current."""
   return os.path.splitext(os.path.basename(config.split(":")[0]))[0] if config else ""
 
 
 def _scene_kinds() -> dict:
-  from halo_jax.bench import suites  # pylint: disable=import-outside-toplevel
+  from experiments.bench import suites  # pylint: disable=import-outside-toplevel
   return {s.name: kind_of(s.config) for s in suites.CPU.scenes}
 
 
@@ -109,7 +111,7 @@ def record(commit: str, runs: dict, views: int, path: str = FILE, digests=None) 
   measurement on another machine than the entry's goes beside it, under
   "machines". digests: step_table_digests() of the commit's table (None: not
   recorded, for an older commit's)."""
-  tree = provenance.code_tree(commit)
+  tree = git_state.code_tree(commit)
   table = load(path)
   methods = sorted({k.rsplit("/", 1)[-1] for k in runs})
   mine = machine()
@@ -120,7 +122,7 @@ def record(commit: str, runs: dict, views: int, path: str = FILE, digests=None) 
            else entry.setdefault("machines", {}).setdefault(mine, {"methods": {}}))
   where["methods"].update({m: of_runs(runs, m) for m in methods})
   where.setdefault("kinds", {}).update({m: kinds_of_runs(runs, m) for m in methods})
-  where.update(versions=provenance.collect(measure_peak=False)["versions"],
+  where.update(versions=git_state.collect(measure_peak=False)["versions"],
                time_utc=time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()))
   if digests is not None:
     entry["step_table"] = digests
@@ -138,7 +140,7 @@ def step_table_digests(path: str = "") -> dict:
   fingerprint run writes its own table, so this companion is what sees a
   change of the committed one (a changed entry moves a suite's step counts)."""
   from halo_jax import step_table  # pylint: disable=import-outside-toplevel
-  from halo_jax.bench import benchmark, step_times  # pylint: disable=import-outside-toplevel
+  from experiments.bench import benchmark, step_times  # pylint: disable=import-outside-toplevel
   entries = step_table.load(path)
   keys = {}
   for suite, scene, method in step_times.pairs():
@@ -172,7 +174,7 @@ def tree_of(rec: dict):
   """The code tree of a record's commit: stored, or computed from the commit
   (None where git does not know it)."""
   git = rec.get("provenance", {}).get("git", {})
-  return git.get("code_tree") or (provenance.code_tree(git["commit"]) if git.get("commit")
+  return git.get("code_tree") or (git_state.code_tree(git["commit"]) if git.get("commit")
                                   else None)
 
 

@@ -2,7 +2,6 @@
 [record, ...]}}, report.pool): per scene, over scenes, the goals per scene
 kind, by stage, on validation views, and where the runs came from."""
 import collections
-import os
 import warnings
 
 import matplotlib
@@ -12,7 +11,8 @@ import matplotlib.pyplot as plt  # pylint: disable=g-import-not-at-top
 import numpy as np  # pylint: disable=g-import-not-at-top
 
 from halo_jax import runs  # pylint: disable=g-import-not-at-top
-from halo_jax.bench.report_common import (  # pylint: disable=g-import-not-at-top
+from experiments.bench import code_version  # pylint: disable=g-import-not-at-top
+from experiments.bench.report_common import (  # pylint: disable=g-import-not-at-top
     BASELINE, collapsed_methods, in_method_order, mean_pm, stat)
 
 
@@ -139,11 +139,6 @@ def scene_overrides(by_method):
   return ", ".join(f"`{k}={v}`" for k, v in rec.get("scene_overrides") or [])
 
 
-def scene_kind(config: str) -> str:
-  """'configs/dnerf.py:hook_cpu' -> 'dnerf': the scene kind is the config file."""
-  return os.path.splitext(os.path.basename(config.split(":")[0]))[0]
-
-
 def curve_drop(records) -> float:
   """Mean over runs of (curve peak - last curve point), dB: how far a method's
   held-out PSNR has fallen from its best by the end of training, the
@@ -169,7 +164,7 @@ def claims(scenes, method="halo"):
   kinds = collections.defaultdict(list)
   for scene, by in scenes.items():
     if method in by:
-      kinds[scene_kind(by[method][0]["config"])].append(scene)
+      kinds[code_version.kind_of(by[method][0]["config"])].append(scene)
   mean = lambda rs: float(np.mean([r["psnr"] for r in rs]))  # pylint: disable=unnecessary-lambda-assignment
   lines = [f"| scene kind | scenes | baseline | {method} - baseline (dB) | scenes where the "
            f"baseline's curve falls ≥ {FAILURE_DROP_DB} dB | stated goal (dB) | met |",

@@ -2,8 +2,8 @@
 study (suites.BUDGET_STUDY: 60, 240 and 960 reference seconds): a default
 changes only where it is not worse by more than 0.3 dB on any scene of its
 kind at any of them, and better on the mean (docs/validation.md)."""
-from halo_jax.bench import suites
-from halo_jax.bench.study_types import BASELINE, Study, Variant, hi_lr as _hi_lr
+from experiments.bench import suites
+from experiments.bench.study_types import BASELINE, Study, Variant, hi_lr as _hi_lr
 
 
 # The scenes whose Hi-NeRF the ray field's window samples: every 360-degree

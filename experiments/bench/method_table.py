@@ -14,7 +14,7 @@ from absl import flags
 
 from halo_jax import config_files, configure, pipeline, protocol
 from halo_jax.methods import METHODS
-from halo_jax.bench import tool
+from experiments.bench import tool
 from halo_jax.registry import ConfigError
 
 flags.DEFINE_bool("check", False, "Only compare with the page; exit 1 if it differs.")
@@ -132,7 +132,7 @@ def main(argv):
 
 
 def cli():
-  """The console script's entry point."""
+  """The tool's entry point (python experiments/<tool>.py)."""
   tool.run(sys.modules[__name__], main)
 
 

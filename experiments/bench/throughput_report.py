@@ -21,14 +21,14 @@ import sys
 
 from absl import flags
 
-from halo_jax.bench import tool
-from halo_jax.bench.paths import REPO
+from experiments.bench import tool
+from experiments.bench.paths import REPO
 
 FLAGS = flags.FLAGS
 NOISE = 0.05
 STEP_ORDER = ("lo", "ray", "hi", "nerf", "render")
 # The code whose change can move a step's time: the commits the page names.
-# experiments/throughput.py held the measurement before halo_jax/bench/ did
+# experiments/throughput.py held the measurement before experiments/bench/ did
 CODE_PATHS = ("halo_jax", "configs", "experiments/throughput.py")
 
 
@@ -217,7 +217,7 @@ def main(argv):
 
 
 def cli():
-  """The console script's entry point."""
+  """The tool's entry point (python experiments/<tool>.py)."""
   define_flags()
   tool.run(sys.modules[__name__], main)
 

@@ -1,5 +1,4 @@
-"""How a benchmark tool launches, from a console script or an experiments/
-driver alike."""
+"""How a benchmark tool launches from its driver (python experiments/<tool>.py)."""
 import sys
 
 from absl import app, flags

@@ -5,8 +5,8 @@ import os
 
 import numpy as np
 
-from halo_jax.bench import run_file, suites
-from halo_jax.bench.report_common import BASELINE
+from experiments.bench import run_file, suites
+from experiments.bench.report_common import BASELINE
 
 METHOD = "halo"
 
@@ -113,7 +113,7 @@ def probe_section(by_key, by_budget, hi_minus_lo, lead) -> list:
   cols = ("own", "own_twice_samples", "baseline_sampler", "twice_baseline_samples", BASELINE,
           f"{BASELINE}_twice_samples")
   out = ["## What sets the margin", "",
-         "`python -m halo_jax.bench.budget_probe --suite=SUITE --scratch=DIR` re-renders a "
+         "`python -m experiments.bench.budget_probe --suite=SUITE --scratch=DIR` re-renders a "
          "finished pair of runs (halo and nerf_tuned, one scene and seed) on the same "
          "validation views: Hi-NeRF's trained field with its own sampler (as scored), with "
          "twice its samples, with nerf_tuned's stratified sampler and with twice that; "

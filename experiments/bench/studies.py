@@ -4,8 +4,8 @@ plus config overrides), reference variant and seeds (run by ablations.py).
 Each variant states every field it is about, so that it stays what it says
 when a default moves.
 """
-from halo_jax.bench import budget_studies, suites
-from halo_jax.bench.study_types import (BASELINE, NEUTRAL_START as _NEUTRAL_START, Study,  # noqa: F401
+from experiments.bench import budget_studies, suites
+from experiments.bench.study_types import (BASELINE, NEUTRAL_START as _NEUTRAL_START, Study,  # noqa: F401
                                         Variant, both as _both, hi_lr as _hi_lr)
 
 _DNERF = tuple(s for s in suites.CPU.scenes if s.name.startswith("dnerf_"))
