@@ -161,7 +161,7 @@ class NeRFMLP(nn.Module):
     return sigma.reshape(shape), rgb.reshape(*shape, 3)
 
 
-class DeformNeRF(nn.Module):
+class DeformNeRF(NeRFMLP):
   """Dynamic radiance field (D-NeRF style): a deformation MLP maps a point at
   time t to a canonical point, which a static NeRFMLP colours.
 
@@ -170,31 +170,17 @@ class DeformNeRF(nn.Module):
   Lo encodings of x and t come first in D's input and in the canonical
   NeRF's (as in NeRFMLP), so a Hi model can start as a copy of a Lo model.
 
-  Attributes:
+  Attributes (beside NeRFMLP's, which the canonical NeRF takes):
     time_freqs, time_scale: L and s of the time encoding (its own frequencies).
     base_time_freqs, base_time_scale: the Lo time encoding, with base_freqs.
     deform_width, deform_depth: size of the deformation MLP.
-    Others as in NeRFMLP.
   """
-  pos_freqs: int = 10
-  pos_scale: float = 1.0
-  base_freqs: int = 0
-  base_scale: float = 1.0
   time_freqs: int = 6
   time_scale: float = 1.0
   base_time_freqs: int = 0
   base_time_scale: float = 1.0
-  width: int = 256
-  depth: int = 8
-  skips: Sequence[int] = (4,)
-  use_viewdirs: bool = True
-  dir_freqs: int = 4
-  density_bias: float = -1.0
   deform_width: int = 128
   deform_depth: int = 4
-  density_activation: str = "softplus"
-  compute_dtype: str = "float32"
-  sin_cos: str = "polynomial"   # the encodings' sin and cos (trig.KINDS)
 
   @nn.compact
   def __call__(self, points, viewdirs=None, density_noise_key=None, density_noise=0.0,
@@ -225,15 +211,13 @@ class DeformNeRF(nn.Module):
         encoding.over_points(encode, jnp.concatenate([x, times], -1)))
     offset = nn.Dense(3, kernel_init=nn.initializers.zeros, dtype=jnp.float32,
                       name="offset")(h).reshape(*shape, 3)
-    canonical = NeRFMLP(pos_freqs=self.pos_freqs, pos_scale=self.pos_scale,
-                        base_freqs=self.base_freqs, base_scale=self.base_scale,
-                        width=self.width, depth=self.depth, skips=tuple(self.skips),
-                        use_viewdirs=self.use_viewdirs, dir_freqs=self.dir_freqs,
-                        density_bias=self.density_bias,
-                        density_activation=self.density_activation,
-                        compute_dtype=self.compute_dtype, sin_cos=self.sin_cos,
+    canonical = NeRFMLP(**{f.name: getattr(self, f.name) for f in _NERF_FIELDS},
                         name="canonical")
     return canonical(points + offset, viewdirs, density_noise_key, density_noise, band_fraction)
+
+
+# the canonical NeRF's attributes: NeRFMLP's own, without Flax's parent and name
+_NERF_FIELDS = tuple(f for f in dataclasses.fields(NeRFMLP) if f.name not in ("parent", "name"))
 
 
 class EPINeRF(nn.Module):
