@@ -38,8 +38,8 @@ import traceback
 
 from absl import flags, logging
 
-from experiments.bench import (adopt, benchmark, code_version, fronts_report, git_state,
-                               report_common, run_file, selection, suites, tool)
+from experiments.bench import (adopt, benchmark, code_version, fronts_report, gap_report,
+                               git_state, report_common, run_file, selection, suites, tool)
 from experiments.bench.paths import REPO
 from experiments.bench.studies import MATCHED_STEPS, STUDIES, Study, Variant  # noqa: F401
 from halo_jax import progress, protocol, runs
@@ -302,7 +302,7 @@ def report(study_name: str, study: Study, results: str) -> str:
           f"`{v.name}` " + ", ".join(f"s{r['seed']} {r['psnr']:.2f}"
                                      for r in sorted(rs, key=lambda r: r["seed"]))
           for v, rs in rows if rs) + "."]
-  lines += _overall(study, recs)
+  lines += _overall(study, recs) + gap_report.lines(study, recs)
   lines += _rule_lines(study, recs)
   lines += [""] + report_common.collapse_lines(
       [(f"{scene}/{variant}/seed{r['seed']}", r) for (scene, variant), rs in sorted(recs.items())
