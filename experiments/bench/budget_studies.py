@@ -67,6 +67,11 @@ def _ndc_ray_study(budget_s: float) -> Study:
       reference="halo", seeds=2, budget="time", front=False, budget_s=budget_s)
 
 
+def _dynamic_hi(lr=5e-4, time_L=8, empty=0.1):
+  """The overrides of a D-NeRF Hi: its rate, time frequencies and L_empty weight."""
+  return _hi_lr(lr) + (("hi.encoding.time_L", time_L), ("hi.empty.weight", empty))
+
+
 def _dynamic_hi_study(budget_s: float) -> Study:
   """D-NeRF: what keeps Hi-NeRF at or above its own Lo, at one budget of the
   budget study."""
@@ -79,18 +84,12 @@ def _dynamic_hi_study(budget_s: float) -> Study:
                 "encoding's change too."),
       scenes=tuple(s for s in suites.VALIDATION_SCENES if s.name.startswith("dnerf_")),
       variants=(
-          Variant("halo", "halo", _hi_lr(5e-4) + (("hi.encoding.time_L", 8),
-                                                  ("hi.empty.weight", 0.1)),
+          Variant("halo", "halo", _dynamic_hi(),
                   "Hi at 5e-4 -> 5e-5, time_L 8, L_empty 0.1 (the CPU config)"),
-          Variant("hi_lr_2.5e-4", "halo", _hi_lr(2.5e-4) + (("hi.encoding.time_L", 8),
-                                                            ("hi.empty.weight", 0.1)),
-                  "Hi at 2.5e-4 -> 2.5e-5"),
-          Variant("hi_time_L_4", "halo", _hi_lr(5e-4) + (("hi.encoding.time_L", 4),
-                                                         ("hi.empty.weight", 0.1)),
+          Variant("hi_lr_2.5e-4", "halo", _dynamic_hi(lr=2.5e-4), "Hi at 2.5e-4 -> 2.5e-5"),
+          Variant("hi_time_L_4", "halo", _dynamic_hi(time_L=4),
                   "Hi's time encoding at Lo's 4 frequencies (space keeps 10)"),
-          Variant("empty_0.5", "halo", _hi_lr(5e-4) + (("hi.encoding.time_L", 8),
-                                                       ("hi.empty.weight", 0.5)),
-                  "L_empty at 0.5"),
+          Variant("empty_0.5", "halo", _dynamic_hi(empty=0.5), "L_empty at 0.5"),
           BASELINE,
           Variant("nerf_tuned_time_L_4", "nerf_tuned", (("hi.encoding.time_L", 4),),
                   "the baseline with 4 time frequencies"),

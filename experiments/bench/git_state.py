@@ -75,20 +75,19 @@ def matmul_peak_gflops(n: int = 0, rounds: int = 5) -> float:
   return 2.0 * n ** 3 / best / 1e9
 
 
-def collect(measure_peak: bool = True) -> dict:
-  """The provenance record: versions, device, CPU, git state, matmul peak, command."""
+def _clone(measure_peak: bool = True) -> dict:
+  return {"git": git_state(),
+          "matmul_peak_gflops": round(matmul_peak_gflops(), 1) if measure_peak else None}
 
 
 def collect(measure_peak: bool = True) -> dict:
   """The library's provenance record with the clone's git state and, unless
   measure_peak is False, this machine's matmul peak."""
-  return dict(provenance.collect(), git=git_state(),
-              matmul_peak_gflops=round(matmul_peak_gflops(), 1) if measure_peak else None)
+  return dict(provenance.collect(), **_clone(measure_peak))
 
 
 def stamp(record: dict) -> dict:
   """`record` (a run's result) with the clone's git state and the matmul peak
   in its provenance."""
-  record["provenance"] = dict(record.get("provenance") or {}, git=git_state(),
-                              matmul_peak_gflops=round(matmul_peak_gflops(), 1))
+  record["provenance"] = dict(record.get("provenance") or {}, **_clone())
   return record
