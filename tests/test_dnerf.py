@@ -159,6 +159,30 @@ def test_hi_starts_as_a_copy_of_lo_in_space_and_time():
     np.testing.assert_allclose(a, b, rtol=1e-5, atol=1e-6)
 
 
+def test_the_band_mask_on_a_hi_copied_from_lo_hides_only_its_own_bands():
+  """hi.freq_reg on HALO's dynamic Hi (budget study's `freq_reg_0.9`): Lo's
+  encodings stay open, so the copy is Lo at every mask position, and a Hi
+  that has learned high bands loses them at fraction 0."""
+  lo = models.DeformNeRF(pos_freqs=2, time_freqs=2, width=16, depth=2, skips=(),
+                         use_viewdirs=False, deform_width=8, deform_depth=2)
+  hi = models.DeformNeRF(pos_freqs=6, time_freqs=4, base_freqs=2, base_time_freqs=2,
+                         width=16, depth=2, skips=(), use_viewdirs=False, deform_width=8,
+                         deform_depth=2)
+  p_lo = models.init_nerf(lo, "deform", 0)
+  p_lo["offset"]["kernel"] = 0.1 * jnp.ones_like(p_lo["offset"]["kernel"])
+  p = transfer.transfer_from_lo(models.init_nerf(hi, "deform", 1), p_lo, lo_inputs_first=True)
+  x = jax.random.normal(jax.random.PRNGKey(2), (50, 3))
+  t = jax.random.uniform(jax.random.PRNGKey(3), (50, 1))
+  want = lo.apply({"params": p_lo}, x, None, times=t)[0]
+  for fraction in (0.0, 0.5):
+    np.testing.assert_allclose(
+        hi.apply({"params": p}, x, None, times=t, band_fraction=fraction)[0], want,
+        rtol=1e-5, atol=1e-6)
+  learned = jax.tree_util.tree_map(lambda a: a + 0.05, p)  # weights on the high bands too
+  assert not np.allclose(hi.apply({"params": learned}, x, None, times=t, band_fraction=0.0)[0],
+                         hi.apply({"params": learned}, x, None, times=t)[0])
+
+
 def test_flicker_closed_forms():
   t = jnp.linspace(0, 1, 6)[:, None, None, None]
   linear = 0.2 + 0.5 * t * jnp.ones((6, 4, 4, 3))

@@ -67,9 +67,11 @@ def _ndc_ray_study(budget_s: float) -> Study:
       reference="halo", seeds=2, budget="time", front=False, budget_s=budget_s)
 
 
-def _dynamic_hi(lr=5e-4, time_L=8, empty=0.1):
-  """The overrides of a D-NeRF Hi: its rate, time frequencies and L_empty weight."""
-  return _hi_lr(lr) + (("hi.encoding.time_L", time_L), ("hi.empty.weight", empty))
+def _dynamic_hi(lr=5e-4, time_L=8, empty=0.1, freq_reg=0.0):
+  """The overrides of a D-NeRF Hi: its rate, time frequencies, L_empty weight
+  and FreeNeRF's mask on its own P.E. bands (Lo's stay open)."""
+  return _hi_lr(lr) + (("hi.encoding.time_L", time_L), ("hi.empty.weight", empty),
+                       ("hi.freq_reg.end", freq_reg))
 
 
 def _dynamic_hi_study(budget_s: float) -> Study:
@@ -90,6 +92,9 @@ def _dynamic_hi_study(budget_s: float) -> Study:
           Variant("hi_time_L_4", "halo", _dynamic_hi(time_L=4),
                   "Hi's time encoding at Lo's 4 frequencies (space keeps 10)"),
           Variant("empty_0.5", "halo", _dynamic_hi(empty=0.5), "L_empty at 0.5"),
+          Variant("freq_reg_0.9", "halo", _dynamic_hi(freq_reg=0.9),
+                  "Hi's own P.E. bands (Lo's always open) opening one after another over "
+                  "90% of its steps (FreeNeRF's mask)"),
           BASELINE,
           Variant("nerf_tuned_time_L_4", "nerf_tuned", (("hi.encoding.time_L", 4),),
                   "the baseline with 4 time frequencies"),
