@@ -329,15 +329,9 @@ def test_a_field_added_to_halo_reaches_no_baseline(monkeypatch):
 
   before = resolved()
 
-  def with_dummy(kind):
-    def patched(c):
-      kind(c)
-      c.hi.density_noise = 0.123
-      c.hi.model.width = 7
-    return patched
-
-  for name, kind in list(halo.KINDS.items()):
-    monkeypatch.setitem(halo.KINDS, name, with_dummy(kind))
+  for name, table in list(halo.KINDS.items()):
+    monkeypatch.setitem(halo.KINDS, name,
+                        {**table, "hi.density_noise": 0.123, "hi.model.width": 7})
   after = resolved()
   assert set(before) == set(after)
   for spec, name in before:
@@ -402,3 +396,30 @@ def test_the_extending_example_is_one_file_and_one_line(monkeypatch):
   assert got == base
   with pytest.raises(ConfigError, match="'nerf\\+empty' does not run on data.kind='llff'"):
     configure.load("configs/llff.py:fern_4view_cpu", "nerf+empty")
+
+
+def test_a_method_table_sets_fields_in_order_and_names_a_missing_one():
+  from halo_jax.methods import base
+  c = configure.load_scene("configs/blender.py:lego_8view_cpu")
+  table = {"hi.sampler.num_samples": 12,
+           "baseline.num_samples": lambda cfg: cfg.hi.sampler.num_samples + 1}
+  base.set_fields(c, table)
+  assert (c.hi.sampler.num_samples, c.baseline.num_samples) == (12, 13)
+  with pytest.raises(KeyError, match="hi.sampler.num_sample"):
+    base.set_fields(c, {"hi.sampler.num_sample": 3})
+
+
+def test_halo_is_its_table_on_each_scene_kind():
+  from halo_jax.methods import halo
+  for spec, kind in (("configs/blender.py:lego_8view_cpu", "sphere"),
+                     ("configs/llff.py:fern_4view_cpu", "ndc"),
+                     ("configs/dnerf.py:hook_cpu", "dynamic"),
+                     ("configs/stanford_lf.py:knights_cpu", "two_plane")):
+    c = configure.load(spec, "halo").to_dict()
+    for dotted, value in halo.KINDS[kind].items():
+      if callable(value):
+        continue
+      node = c
+      for part in dotted.split("."):
+        node = node[part]
+      assert node == value, (spec, dotted)

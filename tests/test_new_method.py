@@ -15,13 +15,8 @@ TOY = '''
 from halo_jax.methods import METHODS, base, nerf_tuned
 
 
-def apply(c):
-  c = nerf_tuned.METHOD.apply(c)
-  c.hi.sampler.num_samples = 8
-  return c
-
-
-METHOD = base.Method("a toy: nerf_tuned with 8 samples a ray", apply)
+METHOD = base.Method("a toy: nerf_tuned with 8 samples a ray",
+                     base.on_top_of(nerf_tuned.METHOD.apply, {"hi.sampler.num_samples": 8}))
 METHODS.register("toy", METHOD)
 '''
 

@@ -69,7 +69,8 @@ def test_nerf_baseline_needs_no_earlier_stage(scene_root, tmp_path):
   from halo_jax.methods import nerf_tuned
   config = tiny_config(method="")
   config.data.root = scene_root
-  nerf_tuned.apply(config, 8)
+  config.baseline.num_samples = 8
+  nerf_tuned.apply(config)
   config.hi.sampler.kind = "hierarchical"
   assert pipeline.needed(config) == ("hi",)
   infos = pipeline.run(config, str(tmp_path / "nerf"))

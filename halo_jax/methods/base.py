@@ -1,8 +1,8 @@
 """The Method record, apart from the registry so method modules can import it."""
 import dataclasses
-from typing import Protocol
+from typing import Any, Callable, Mapping, Protocol, Union
 
-from halo_jax import geometry
+from halo_jax import frozen, geometry
 from halo_jax.types import Config
 
 
@@ -26,3 +26,21 @@ class Method:
 
 
 COMPARED, REPORTED = "compared", "reported"
+
+
+# A method's setting of one field: a value, or a function of the config as
+# edited so far (a setting derived from the scene: its protocol, its sizes).
+Setting = Union[Any, Callable[[Config], Any]]
+
+
+def set_fields(c: Config, table: Mapping[str, Setting]) -> Config:
+  """Writes each dotted field of `table` into c, in the table's order;
+  KeyError naming a field that no config has."""
+  for dotted, value in table.items():
+    frozen.set_field(c, dotted, value(c) if callable(value) else value)
+  return c
+
+
+def on_top_of(first: ApplyFn, table: Mapping[str, Setting]) -> ApplyFn:
+  """A method that is method `first` (its apply) with `table`'s fields set after it."""
+  return lambda c: set_fields(first(c), table)

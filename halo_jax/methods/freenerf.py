@@ -17,11 +17,10 @@ OCCLUSION_WEIGHT = 0.01
 OCCLUSION_NUM_NEAR = 20
 
 
-def apply(c):
-  nerf_paper.apply(c)
-  c.hi.freq_reg.end = FREQ_REG_END
-  c.hi.occlusion.update(weight=OCCLUSION_WEIGHT, num_near=OCCLUSION_NUM_NEAR)
-  return c
+TABLE = {"hi.freq_reg.end": FREQ_REG_END, "hi.occlusion.weight": OCCLUSION_WEIGHT,
+         "hi.occlusion.num_near": OCCLUSION_NUM_NEAR}
+
+apply = base.on_top_of(nerf_paper.apply, TABLE)
 
 
 METHOD = base.Method("FreeNeRF: the paper's NeRF with a P.E. mask that opens over 90% of "

@@ -53,68 +53,64 @@ DYNAMIC_SHARES = dict(lo=0.3, ray=0.0, hi=0.7)  # no ray stage to share the budg
 FULL_FRACTION = 0.25      # share of Hi's samples over the whole ray, ndc scenes
 
 
-def _copy_lo(c):
-  """Hi-NeRF starts as Lo-NeRF's exact function."""
-  c.hi.init_from_lo = True
-  c.hi.encoding.with_lo = True
-
-
-def _copy_lo_under_budget(c):
-  """Hi-NeRF starts as Lo-NeRF's exact function when the run is budgeted.
-  protocol.resolve reads the protocol, so the order in which the budget and
-  the method are given does not matter."""
-  c.hi.copy_lo_under_budget = True
-
-
 def _empty_weight(c):
   return PROTOCOL_EMPTY_WEIGHT.get(c.data.protocol, EMPTY_WEIGHT)
 
 
-def sphere(c):
-  c.stages = "lo,ray,hi"
-  c.hi.sampler.kind = "depth_guided"
-  c.hi.empty.weight = _empty_weight(c)
-  c.lo.precrop_steps = 0
-  if c.data.white_background:  # photos of a room have no background to tell from
-    c.lo.update(fg_steps=FG_STEPS, fg_fraction=FG_FRACTION)
-  _copy_lo_under_budget(c)
+def _on_white(value, field):
+  """Lo's foreground start: only where the background is white (photos of a
+  room have no background to tell from)."""
+  return lambda c: value if c.data.white_background else c.lo[field]
 
 
-def ndc(c):
-  c.stages = "lo,ray,hi"
-  c.hi.sampler.kind = "depth_guided"
-  # Forward-facing: every ray hits the scene, so there is no background to
-  # keep empty, and no hemisphere of cameras to draw random rays from.
-  c.hi.empty.weight = 0.0
-  c.ray.update(random_fraction=0.0, bank_rays=0)
-  c.hi.sampler.num_full = int(c.hi.sampler.num_samples * FULL_FRACTION)
-  _copy_lo_under_budget(c)
-
-
-def dynamic(c):
-  c.stages = "lo,hi"
-  c.budget_shares.update(DYNAMIC_SHARES)
-  _copy_lo(c)
-  c.hi.sampler.kind = "stratified"
-  c.hi.empty.weight = _empty_weight(c)
-  # The centre crop is the baseline's, so that the two differ by Lo's help.
-  c.hi.precrop_steps = c.lo.precrop_steps
-  c.hi.lr_init, c.hi.lr_final = COPY_LR
-
-
-def two_plane(c):
-  c.stages = "hi"
-  c.hi.sampler.kind = "joint"
-  c.hi.empty.weight = 0.0   # every pixel is the scene: no background
-
-
-KINDS = {"sphere": sphere, "ndc": ndc, "dynamic": dynamic, "two_plane": two_plane}
+# The table above as data: per scene kind, the fields HALO sets on the
+# scene's config, in order (base.Setting). `hi.copy_lo_under_budget` leaves
+# the start to protocol.resolve, the one reader of the protocol, so the order
+# in which the budget and the method are given does not matter.
+KINDS = {
+    "sphere": {
+        "stages": "lo,ray,hi",
+        "hi.sampler.kind": "depth_guided",
+        "hi.empty.weight": _empty_weight,
+        "lo.precrop_steps": 0,
+        "lo.fg_steps": _on_white(FG_STEPS, "fg_steps"),
+        "lo.fg_fraction": _on_white(FG_FRACTION, "fg_fraction"),
+        "hi.copy_lo_under_budget": True,
+    },
+    "ndc": {
+        "stages": "lo,ray,hi",
+        "hi.sampler.kind": "depth_guided",
+        # every ray hits the scene: no background to keep empty, and no
+        # hemisphere of cameras to draw random rays from
+        "hi.empty.weight": 0.0,
+        "ray.random_fraction": 0.0,
+        "ray.bank_rays": 0,
+        "hi.sampler.num_full": lambda c: int(c.hi.sampler.num_samples * FULL_FRACTION),
+        "hi.copy_lo_under_budget": True,
+    },
+    "dynamic": {
+        "stages": "lo,hi",
+        **{f"budget_shares.{k}": v for k, v in DYNAMIC_SHARES.items()},
+        "hi.init_from_lo": True,          # Hi starts as Lo's exact function
+        "hi.encoding.with_lo": True,
+        "hi.sampler.kind": "stratified",
+        "hi.empty.weight": _empty_weight,
+        # the baseline's centre crop, so that the two differ by Lo's help
+        "hi.precrop_steps": lambda c: c.lo.precrop_steps,
+        "hi.lr_init": COPY_LR[0],
+        "hi.lr_final": COPY_LR[1],
+    },
+    "two_plane": {
+        "stages": "hi",
+        "hi.sampler.kind": "joint",
+        "hi.empty.weight": 0.0,           # every pixel is the scene: no background
+    },
+}
 assert set(KINDS) == {"dynamic"} | {g.value for g in geometry.Geometry}
 
 
 def apply(c):
-  KINDS[datasets.scene_kind(c.data)](c)
-  return c
+  return base.set_fields(c, KINDS[datasets.scene_kind(c.data)])
 
 
 METHOD = base.Method("HALO: a low-frequency field guides and regularises Hi-NeRF", apply,

@@ -75,7 +75,7 @@ def _authors_schedule(stage, power, min_lr=MIN_LR):
 
 
 def two_plane(c):
-  halo.two_plane(c)
+  base.set_fields(c, halo.KINDS["two_plane"])
   hi = c.hi
   hi.sampler.kind = "joint_blended"
   # As many fresh random rays as training rays: their sampler draws batch_size

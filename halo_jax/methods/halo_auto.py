@@ -5,11 +5,6 @@ from halo_jax import geometry
 from halo_jax.methods import base, halo
 
 
-def _auto(c):
-  halo.apply(c)
-  c.lo.encoding.auto = True
-  return c
-
-
-METHOD = base.Method("HALO, Lo-NeRF's frequency chosen by the frequency rule", _auto,
+METHOD = base.Method("HALO, Lo-NeRF's frequency chosen by the frequency rule",
+                     base.on_top_of(halo.apply, {"lo.encoding.auto": True}),
                      geometries=geometry.SPATIAL)

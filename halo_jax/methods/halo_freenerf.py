@@ -9,10 +9,7 @@ frequency already.
 from halo_jax.methods import base, freenerf, halo
 
 
-def apply(c):
-  halo.apply(c)
-  c.hi.freq_reg.end = freenerf.FREQ_REG_END
-  return c
+TABLE = {"hi.freq_reg.end": freenerf.FREQ_REG_END}
 
-
-METHOD = base.Method("HALO with FreeNeRF's P.E. schedule on Hi-NeRF", apply, role=base.COMPARED)
+METHOD = base.Method("HALO with FreeNeRF's P.E. schedule on Hi-NeRF",
+                     base.on_top_of(halo.apply, TABLE), role=base.COMPARED)

@@ -9,13 +9,9 @@ from halo_jax import geometry
 from halo_jax.methods import base, halo
 
 
-def apply(c):
-  halo.apply(c)
-  c.stages = "lo,hi"
-  c.hi.sampler.kind = "joint"
-  c.hi.joint.alpha_final = c.hi.sampler.window
-  return c
+TABLE = {"stages": "lo,hi", "hi.sampler.kind": "joint",
+         "hi.joint.alpha_final": lambda c: c.hi.sampler.window}
 
-
-METHOD = base.Method("HALO's joint scheme: the ray field trained with Hi-NeRF", apply,
-                     geometries=geometry.SPATIAL, dynamic=False)
+METHOD = base.Method("HALO's joint scheme: the ray field trained with Hi-NeRF",
+                     base.on_top_of(halo.apply, TABLE), geometries=geometry.SPATIAL,
+                     dynamic=False)

@@ -17,21 +17,35 @@ from halo_jax.methods import base, nerf_tuned
 RAYS_PER_STEP = 1024
 
 
-def apply(c):
-  nerf_tuned.apply(c)
-  hi = c.hi
-  hi.sampler.update(kind="coarse_fine", num_coarse=64, num_samples=128, coarse_model=True,
-                    coarse_weight=1.0)
-  hi.model.update(density_activation="relu", density_bias=0.0, use_viewdirs=True)
-  forward_facing = datasets.spec_of(c.data).geometry == geometry.Geometry.NDC
-  hi.density_noise = 1.0 if forward_facing else 0.0
-  hi.update(batch_rays=RAYS_PER_STEP, one_image=True, precrop_steps=500, precrop_frac=0.5,
-            lr_init=5e-4, lr_final=5e-5, lr_decay_steps=500000)
-  if hi.microbatches > 1:
-    # ~4x nerf_tuned's samples per ray: 4x the parts keeps each part's
-    # activations the same size (CPU cache; see defaults.cpu_sized)
-    hi.microbatches = min(4 * hi.microbatches, RAYS_PER_STEP // 16)
-  return c
+def _microbatches(c):
+  """~4x nerf_tuned's samples per ray: 4x the parts keeps each part's
+  activations the same size (CPU cache; see defaults.cpu_sized)."""
+  m = c.hi.microbatches
+  return min(4 * m, RAYS_PER_STEP // 16) if m > 1 else m
+
+
+TABLE = {
+    "hi.sampler.kind": "coarse_fine",
+    "hi.sampler.num_coarse": 64,
+    "hi.sampler.num_samples": 128,
+    "hi.sampler.coarse_model": True,
+    "hi.sampler.coarse_weight": 1.0,
+    "hi.model.density_activation": "relu",
+    "hi.model.density_bias": 0.0,
+    "hi.model.use_viewdirs": True,
+    "hi.density_noise": lambda c: (1.0 if datasets.spec_of(c.data).geometry
+                                   == geometry.Geometry.NDC else 0.0),
+    "hi.batch_rays": RAYS_PER_STEP,
+    "hi.one_image": True,
+    "hi.precrop_steps": 500,
+    "hi.precrop_frac": 0.5,
+    "hi.lr_init": 5e-4,
+    "hi.lr_final": 5e-5,
+    "hi.lr_decay_steps": 500000,
+    "hi.microbatches": _microbatches,
+}
+
+apply = base.on_top_of(nerf_tuned.apply, TABLE)   # nerf_tuned's Hi-NeRF alone, then TABLE
 
 
 METHOD = base.Method("NeRF as published: coarse + fine MLPs, ReLU density, one image a step",

@@ -9,17 +9,24 @@ collapses with few views.
 from halo_jax.methods import base
 
 
-def apply(c, num_samples: int = 0):
-  c.stages = "hi"
-  c.hi.sampler.kind = "stratified"
-  hi_samples = c.hi.sampler.num_samples
-  c.hi.sampler.num_samples = num_samples or c.baseline.num_samples
-  # Keep the samples in each micro-batch (its cache footprint) as Hi-NeRF's.
-  parts = c.hi.microbatches * c.hi.sampler.num_samples // hi_samples
-  if parts > 1 and c.hi.batch_rays % parts == 0:
-    c.hi.microbatches = parts
-  c.hi.precrop_steps = c.lo.precrop_steps
-  return c
+def _microbatches(c):
+  """Keeps the samples in each micro-batch (its cache footprint) as the
+  scene's Hi-NeRF has them, with the baseline's sample count."""
+  parts = c.hi.microbatches * c.baseline.num_samples // c.hi.sampler.num_samples
+  return parts if parts > 1 and c.hi.batch_rays % parts == 0 else c.hi.microbatches
+
+
+TABLE = {
+    "stages": "hi",
+    "hi.sampler.kind": "stratified",
+    "hi.microbatches": _microbatches,     # before the count it reads changes
+    "hi.sampler.num_samples": lambda c: c.baseline.num_samples,
+    "hi.precrop_steps": lambda c: c.lo.precrop_steps,
+}
+
+
+def apply(c):
+  return base.set_fields(c, TABLE)
 
 
 METHOD = base.Method("NeRF, one MLP, stratified samples, softplus density, noise 1.0", apply,
