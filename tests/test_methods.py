@@ -423,3 +423,13 @@ def test_halo_is_its_table_on_each_scene_kind():
       for part in dotted.split("."):
         node = node[part]
       assert node == value, (spec, dotted)
+
+
+def test_lo_nerf_on_ndc_has_its_own_scale_at_every_size():
+  from halo_jax.methods import halo
+  for spec in ("configs/llff.py:fern_4view", "configs/llff.py:fern_4view_cpu",
+               "configs/llff.py:trex_3view"):
+    assert configure.load(spec, "halo").lo.encoding.scale == halo.NDC_LO_SCALE == 1.0, spec
+  # the 360-degree paper-size scale (the authors' 32) is the scene's, untouched
+  assert configure.load("configs/blender.py:lego_8view", "halo").lo.encoding.scale == 32.0
+  assert configure.load("configs/llff.py:fern_4view", "nerf_tuned").lo.encoding.scale == 32.0

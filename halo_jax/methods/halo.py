@@ -20,7 +20,7 @@ as an exact copy of Lo-NeRF (Lo's P.E. kept in Hi's input), since the few
 thousand steps a budget allows do not bring a Hi-NeRF trained from scratch
 back to where Lo already is; the paper's step counts train Hi from scratch.
 
-Two further settings of the paper's own mechanisms are HALO's here, each
+Further settings of the paper's own mechanisms are HALO's here, each
 chosen on validation views (docs/validation.md; docs/results/ablation_fog.md,
 ablation_lo_start.md, ablation_dnerf_hi.md); every HALO method (halo+freenerf,
 halo+unseen, halo_auto) applies them first:
@@ -36,7 +36,11 @@ halo+unseen, halo_auto) applies them first:
   forward-facing scene the window misses the surface on a few percent of
   rays, which carry a large share of Hi's error, and Hi then ended below its
   own Lo (docs/results/ablation_hi_window_*.md; the 360-degree scenes, where
-  the window holds the surface, lose by it).
+  the window holds the surface, lose by it). Lo-NeRF's P.E. has scale 1 at
+  every size (NDC_LO_SCALE): NDC coordinates span [-1, 1], where the 360-degree
+  scale of the paper-size configs (32: a top frequency of 0.5) leaves Lo
+  nearly linear; on fern's frequency grid the held-out PSNR peaks at scale 1
+  and falls 1.2 dB by a top frequency of 1 (results/frequency_val/fern_4view.json).
 - dynamic: Hi-NeRF, started as Lo's exact copy, trains at the paper's rate
   (5e-4 to 5e-5), not the CPU configs' fourfold one, which suits fields
   trained from scratch (the baseline keeps it).
@@ -51,6 +55,7 @@ COPY_LR = (5e-4, 5e-5)    # Hi-NeRF's rate after an exact copy of Lo, dynamic sc
 FG_STEPS, FG_FRACTION = 200, 0.5  # Lo-NeRF's foreground start, sphere scenes
 DYNAMIC_SHARES = dict(lo=0.3, ray=0.0, hi=0.7)  # no ray stage to share the budget with
 FULL_FRACTION = 0.25      # share of Hi's samples over the whole ray, ndc scenes
+NDC_LO_SCALE = 1.0        # Lo-NeRF's P.E. scale on NDC coordinates, at every size
 
 
 def _empty_weight(c):
@@ -86,6 +91,7 @@ KINDS = {
         "ray.random_fraction": 0.0,
         "ray.bank_rays": 0,
         "hi.sampler.num_full": lambda c: int(c.hi.sampler.num_samples * FULL_FRACTION),
+        "lo.encoding.scale": NDC_LO_SCALE,
         "hi.copy_lo_under_budget": True,
     },
     "dynamic": {
