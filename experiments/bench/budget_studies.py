@@ -74,6 +74,11 @@ def _dynamic_hi(lr=5e-4, time_L=8, empty=0.1, freq_reg=0.0):
                        ("hi.freq_reg.end", freq_reg))
 
 
+# The sphere kind's Lo start (methods/halo.py) on a dynamic scene, and Hi uncropped.
+_NO_CROP = (("lo.precrop_steps", 0), ("lo.fg_steps", 200), ("lo.fg_fraction", 0.5),
+            ("hi.precrop_steps", 0))
+
+
 def _dynamic_hi_study(budget_s: float) -> Study:
   """D-NeRF: what keeps Hi-NeRF at or above its own Lo, at one budget of the
   budget study."""
@@ -92,6 +97,12 @@ def _dynamic_hi_study(budget_s: float) -> Study:
           Variant("hi_time_L_4", "halo", _dynamic_hi(time_L=4),
                   "Hi's time encoding at Lo's 4 frequencies (space keeps 10)"),
           Variant("empty_0.5", "halo", _dynamic_hi(empty=0.5), "L_empty at 0.5"),
+          Variant("hi_no_crop", "halo", _dynamic_hi() + (("hi.precrop_steps", 0),),
+                  "Hi, started as Lo's copy, on whole images from its first step (no "
+                  "centre crop)"),
+          Variant("no_crop+fg_start", "halo", _dynamic_hi() + _NO_CROP,
+                  "no centre crop for Lo or Hi; half of Lo's first 200 batches from the "
+                  "foreground (the sphere kind's start)"),
           Variant("freq_reg_0.9", "halo", _dynamic_hi(freq_reg=0.9),
                   "Hi's own P.E. bands (Lo's always open) opening one after another over "
                   "90% of its steps (FreeNeRF's mask)"),
