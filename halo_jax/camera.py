@@ -5,18 +5,9 @@ import numpy as np
 
 
 def pixel_rays(c2w, height: int, width: int, focal: float):
-  """Rays through pixel centres of a pinhole camera (OpenGL/Blender axes).
-
-  The camera looks down its -z axis with +y up, as in the Blender datasets.
-
-  Args:
-    c2w: [3, 4] or [4, 4] camera-to-world matrix (numpy or jax).
-    height, width: image size in pixels.
-    focal: focal length in pixels.
-
-  Returns:
-    origins [H, W, 3], unit directions [H, W, 3] (numpy float32).
-  """
+  """Rays through the pixel centres of a pinhole camera c2w ([3, 4] or [4, 4],
+  OpenGL/Blender axes: looking down -z, +y up) with focal length `focal` in
+  pixels: origins, unit directions [H, W, 3] (numpy float32)."""
   return pinhole_rays(c2w, height, width, (focal, focal, 0.5 * width, 0.5 * height))
 
 
@@ -80,14 +71,8 @@ def rays_between(key, origins, dirs, num_rays: int):
   far plane, both affine in the camera's position and pixel, so a mix of two
   training rays is a ray that a camera between theirs could see: the random
   rays of forward-facing scenes, which have no hemisphere of cameras.
-
-  Args:
-    key: PRNG key.
-    origins, dirs: [R, 3] the rays to draw between (numpy or jax).
-    num_rays: B.
-
-  Returns:
-    origins [B, 3], dirs [B, 3] (jax float32).
+  origins, dirs [R, 3] (numpy or jax) -> num_rays of them, [B, 3] each (jax
+  float32).
   """
   k_i, k_j, k_a = jax.random.split(key, 3)
   origins = jnp.asarray(origins, jnp.float32)
@@ -103,10 +88,8 @@ def random_hemisphere_rays(key, num_rays: int, radius: float, focal_over_width: 
 
   Each ray gets its own camera (uniform on the hemisphere's area, elevation >= 0)
   and a uniformly random pixel of a unit-width image plane with the given
-  focal / width ratio, as the ray field and L_empty use.
-
-  Returns:
-    origins [num_rays, 3], unit directions [num_rays, 3] (jax float32).
+  focal / width ratio, as the ray field and L_empty use: origins, unit
+  directions [num_rays, 3] (jax float32).
   """
   k_cam, k_az, k_px = jax.random.split(key, 3)
   z = jax.random.uniform(k_cam, (num_rays,))  # uniform area on the hemisphere
@@ -133,15 +116,9 @@ def sphere_entry(origins, directions, radius: float):
   A ray field must see the same input for every camera on the same line, so a
   ray is described by its entry point and its direction. Lines that miss the
   sphere use the point closest to the centre, which is continuous with the
-  tangent case.
-
-  Args:
-    origins: [..., 3]; directions: [..., 3] unit vectors.
-    radius: sphere radius.
-
-  Returns:
-    t_entry [...] (signed distance from the origin along the ray; negative when
-    the camera is inside the sphere), entry points [..., 3], hit mask [...].
+  tangent case. origins, unit directions [..., 3] -> t_entry [...] (signed
+  distance along the ray; negative for a camera inside the sphere), entry
+  points [..., 3] and the hit mask [...].
   """
   b = (origins * directions).sum(-1)
   c = (origins ** 2).sum(-1) - radius ** 2
@@ -161,15 +138,10 @@ def ndc_rays(origins, directions, height: int, width: int, focal: float, near: f
 
   Each origin is first moved along its ray to the plane z = -near. In NDC a
   ray is o' + t d' with t in [0, 1] from the near plane to infinity (d' is not
-  unit length; the scale is irrelevant for a learned density).
-
-  Args:
-    origins, directions: [..., 3] world rays (any direction scale, d_z < 0).
-    height, width, focal: the camera's image size and focal length in pixels.
-    near: the world near plane.
-
-  Returns:
-    origins [..., 3], directions [..., 3] in NDC (same array type as input).
+  unit length; the scale is irrelevant for a learned density). World rays
+  [..., 3] (any direction scale, d_z < 0) of a camera of height x width
+  pixels and focal length `focal` -> NDC origins, directions [..., 3] (the
+  input's array type).
   """
   xp = jnp if isinstance(origins, jax.Array) else np
   t = -(near + origins[..., 2]) / directions[..., 2]

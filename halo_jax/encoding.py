@@ -47,17 +47,10 @@ def _by_frequency(x, freqs):
 
 
 def sin_cos_of_scaled(x, freqs: np.ndarray, sin_cos: str = "polynomial"):
-  """sin(x f) and cos(x f) for every frequency, with the compensated angle.
-
-  Args:
-    x: [..., D] coordinates (fp32 gets the compensated form unless every
-      frequency is a power of two; other dtypes the direct one).
-    freqs: [L] frequencies (host float64).
-    sin_cos: how sin and cos are evaluated (trig.KINDS; static).
-
-  Returns:
-    [..., 2, L * D]: the sines, then the cosines, each ordered (k, dim).
-  """
+  """sin(x f) and cos(x f) [..., 2, L * D] of coordinates x [..., D] at every
+  frequency f of freqs [L] (host float64), each half ordered (k, dim). An fp32
+  x gets the compensated angle unless every frequency is a power of two;
+  other dtypes the direct one. sin_cos: trig.KINDS (static)."""
   freqs = np.asarray(freqs, np.float64)
   powers_of_two = np.all(np.frexp(freqs)[0] == 0.5)
   if x.dtype != jnp.float32 or powers_of_two:
@@ -77,21 +70,10 @@ def sin_cos_of_scaled(x, freqs: np.ndarray, sin_cos: str = "polynomial"):
 
 def positional_encoding(x, num_freqs: int, scale: float = 1.0, include_input: bool = True,
                         sin_cos: str = "polynomial"):
-  """gamma(x; L, s) = [x / s, sin(2^k x / s), cos(2^k x / s)] for k = 0..L-1.
-
-  The features are ordered (k, dim) with all sines first, then all cosines.
-
-  Args:
-    x: [..., D] coordinates.
-    num_freqs: L, the number of octaves (0 gives only the input, if included).
-    scale: s, every input is divided by s before encoding (s > 1 lowers all
-      frequencies).
-    include_input: prepend x / s to the features.
-    sin_cos: how sin and cos are evaluated (trig.KINDS; static).
-
-  Returns:
-    [..., D * (2 L + include_input)] features.
-  """
+  """gamma(x; L, s) = [x / s, sin(2^k x / s), cos(2^k x / s)], k = 0..L-1, of
+  x [..., D]: [..., D (2 L + include_input)] features, all sines first, then
+  all cosines, each ordered (k, dim). s > 1 lowers every frequency; L = 0
+  leaves the input alone (if included). sin_cos: trig.KINDS (static)."""
   freqs = 2.0 ** np.arange(num_freqs, dtype=np.float64) / float(scale)
   both = sin_cos_of_scaled(x, freqs, sin_cos)
   feats = [both.reshape(*both.shape[:-2], -1)]
@@ -152,17 +134,8 @@ def fourier_std_from_angular(std: float, span: float) -> float:
 
 def gaussian_fourier_features(x, matrix: np.ndarray, include_input: bool = True,
                               sin_cos: str = "polynomial"):
-  """[x, sin(2 pi x B), cos(2 pi x B)] for a fixed B [D, F].
-
-  Args:
-    x: [..., D] coordinates.
-    matrix: B [D, F] (host array; see fourier_matrix).
-    include_input: prepend x.
-    sin_cos: how sin and cos are evaluated (trig.KINDS; static).
-
-  Returns:
-    [..., D * include_input + 2 F] features.
-  """
+  """[x, sin(2 pi x B), cos(2 pi x B)]: [..., D * include_input + 2 F] of
+  x [..., D] and a fixed host matrix B [D, F] (fourier_matrix)."""
   angles = 2.0 * np.pi * (x @ jnp.asarray(matrix, x.dtype))
   both = trig.sin_cos_stacked(angles, sin_cos)
   feats = [both.reshape(*both.shape[:-2], -1)]
@@ -201,17 +174,10 @@ def axis_fourier_features(x, freqs: np.ndarray, include_input: bool = False,
   """Axis-aligned Fourier features: every frequency applied to each coordinate
   on its own (the authors' NormalEmbedder), not to oblique projections.
 
-  Ordered as theirs: for each frequency f_k, sin(2 pi f_k x_d) over d, then
-  cos(2 pi f_k x_d) over d.
-
-  Args:
-    x: [..., D] coordinates.
-    freqs: [F] frequencies in cycles per unit (host; see axis_frequencies).
-    include_input: prepend x (the authors' light-field embedders do not).
-    sin_cos: how sin and cos are evaluated (trig.KINDS; static).
-
-  Returns:
-    [..., D * include_input + 2 F D] features.
+  Ordered as theirs: for each frequency f_k of freqs [F] (cycles per unit,
+  host; axis_frequencies), sin(2 pi f_k x_d) over d, then cos(2 pi f_k x_d)
+  over d: [..., D * include_input + 2 F D] of x [..., D] (the authors'
+  light-field embedders do not prepend x).
   """
   dim, num = x.shape[-1], len(freqs)
   both = sin_cos_of_scaled(x, 2.0 * np.pi * np.asarray(freqs, np.float64), sin_cos)

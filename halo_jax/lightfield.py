@@ -17,14 +17,9 @@ def epi_points(uv, st, theta, uv_star=(0.0, 0.0)):
 
   s' = s + (u - u*) cot(theta), t' = t + (v - v*) cot(theta).
 
-  Args:
-    uv: [..., 2] camera-plane coordinates of the rays.
-    st: [..., 2] image-plane coordinates of the rays.
-    theta: [...] EPI angles of the points, in (0, pi).
-    uv_star: the camera every point is aligned to.
-
-  Returns:
-    [..., 3] points (s', t', theta).
+  Rays' camera-plane uv [..., 2] and image-plane st [..., 2], the points' EPI
+  angles theta [...] in (0, pi), the camera uv_star they are aligned to ->
+  points (s', t', theta) [..., 3].
   """
   cot = jnp.cos(theta) / jnp.sin(theta)
   aligned = st + (uv - jnp.asarray(uv_star, uv.dtype)) * cot[..., None]
@@ -43,15 +38,9 @@ def depth_points(uv, st, tau, near, far, uv_star=(0.0, 0.0)):
 
   A point at distance d = near + tau (far - near) from the (u, v) plane lies
   on the line from u* that meets the (s, t) plane at
-  s' = s + (u - u*) (far - d) / d.
-
-  Args:
-    uv, st: [..., 2] the rays' plane coordinates.
-    tau: [...] the points' depth fraction in [0, 1].
-    near, far: the depth range; far is also the (s, t) plane's distance.
-
-  Returns:
-    [..., 3] points (s', t', tau).
+  s' = s + (u - u*) (far - d) / d. The rays' uv, st [..., 2] and the points'
+  depth fractions tau [...] in [0, 1] (far: also the (s, t) plane's
+  distance) -> points (s', t', tau) [..., 3].
   """
   d = near + (far - near) * tau
   slope = (far - d) / d
@@ -66,18 +55,10 @@ SLOPES = ("angle", "depth")
 
 
 def ray_points(uv, st, tau_edges, theta_n, theta_f, slope: str = "angle"):
-  """One two-plane ray's points at the midpoints of its intervals in tau.
-
-  Args:
-    uv, st: [2] the ray.
-    tau_edges: [N + 1] sorted interval edges in [0, 1].
-    theta_n, theta_f: the range tau spans (angles, or depths: `slope`).
-    slope: SLOPES.
-
-  Returns:
-    points [N, 3] ((s', t', theta) or (s', t', tau)) and the field's view
-    input, uv [N, 2].
-  """
+  """One two-plane ray's (uv, st [2]) points at the midpoints of its
+  intervals, sorted tau_edges [N + 1] in [0, 1] over theta_n..theta_f
+  (angles, or depths: `slope`, SLOPES): points [N, 3] ((s', t', theta) or
+  (s', t', tau)) and the field's view input, uv [N, 2]."""
   tau = render.interval_midpoints(tau_edges)
   if slope == "depth":
     points = depth_points(uv[None, :], st[None, :], tau, theta_n, theta_f)

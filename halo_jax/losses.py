@@ -12,17 +12,10 @@ import jax.numpy as jnp
 
 
 def over_rays(per_ray: Callable, *rows, weights=None):
-  """The batch form of a per-ray loss.
-
-  Args:
-    per_ray: a function of one ray's arguments -> scalar.
-    *rows: its arguments, each with the rays on the leading axis [R, ...].
-    weights: [R] (bool or float) or None.
-
-  Returns:
-    mean_r per_ray(row r); with weights, sum_r w_r l_r / max(sum_r w_r, 1),
-    the mean over the rays that count (0 when none does).
-  """
+  """The batch form of a per-ray loss per_ray (one ray's arguments ->
+  scalar) over rows, each [R, ...]: mean_r per_ray(row r); with weights [R]
+  (bool or float), sum_r w_r l_r / max(sum_r w_r, 1), the mean over the rays
+  that count (0 when none does)."""
   values = jax.vmap(per_ray)(*rows)
   if weights is None:
     return jnp.mean(values)
@@ -79,16 +72,8 @@ def ray_field(depth, acc, depth_target, acc_target, far, acc_weight=1.0):
 
 
 def empty_space(acc, lo_acc, tau: float = 0.01):
-  """L_empty: mean Hi-NeRF opacity over rays the Lo-NeRF sees as empty.
-
-  Args:
-    acc: [R] Hi-NeRF opacity on random rays.
-    lo_acc: [R] Lo-NeRF opacity on the same rays.
-    tau: a ray counts as empty when lo_acc < tau.
-
-  Returns:
-    scalar; 0 when no ray is empty.
-  """
+  """L_empty: mean Hi-NeRF opacity acc [R] on random rays over those the
+  Lo-NeRF sees as empty (lo_acc [R] < tau); 0 when none is."""
   return over_rays(lambda a: a, _rows(acc), weights=_rows(lo_acc) < tau)
 
 

@@ -31,11 +31,7 @@ def temporal_flicker(frames):
   8-bit levels: zero for a video that changes linearly in time, and growing
   with frame-to-frame jitter that smooth motion does not explain.
 
-  Args:
-    frames: [T, H, W, C] in [0, 1], T >= 3.
-
-  Returns:
-    scalar.
+  frames: [T, H, W, C] in [0, 1], T >= 3 -> scalar.
   """
   if frames.shape[0] < 3:
     raise ValueError(f"temporal_flicker needs >= 3 frames, got {frames.shape[0]}")
@@ -64,15 +60,9 @@ def _lpips_fn(net: str = "vgg16"):
 
 
 def lpips(image, target, net: str = "vgg16"):
-  """LPIPS (Zhang et al. 2018, v0.1 linear heads) of images in [0, 1].
-
-  Args:
-    image, target: [N, H, W, 3] (or [H, W, 3]) in [0, 1]; H, W >= 32 for VGG.
-    net: 'vgg16' (the paper's metric) or 'alexnet'.
-
-  Returns:
-    [N] (or scalar) distances; 0 for identical images.
-  """
+  """LPIPS (Zhang et al. 2018, v0.1 linear heads) of image, target [N, H, W, 3]
+  (or [H, W, 3]) in [0, 1], H, W >= 32 for VGG: [N] (or scalar) distances, 0
+  for identical images. net: 'vgg16' (the paper's metric) or 'alexnet'."""
   fn, params = _lpips_fn(net)
   single = image.ndim == 3
   a = jnp.clip(jnp.asarray(image, jnp.float32), 0.0, 1.0) * 2.0 - 1.0   # LPIPS wants [-1, 1]

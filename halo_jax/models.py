@@ -133,12 +133,9 @@ class NeRFMLP(nn.Module):
   @nn.compact
   def __call__(self, points, viewdirs=None, density_noise_key=None, density_noise=0.0,
                band_fraction=None):
-    """Args: points [..., 3]; viewdirs [..., 3] unit or None; band_fraction:
-    FreeNeRF's mask position in [0, 1] over the point and direction
-    encodings (band_weights), or None for the full encodings.
-
-    Returns: sigma [...] >= 0 and rgb [..., 3] in (0, 1).
-    """
+    """points [..., 3], unit viewdirs [..., 3] or None -> sigma [...] >= 0, rgb
+    [..., 3] in (0, 1). band_fraction: FreeNeRF's mask position in [0, 1]
+    over the point and direction encodings (band_weights), or None."""
     shape = points.shape[:-1]
     points = _rows(points)
     x = encoding.over_points(lambda p: masked_positional_encoding(
@@ -185,12 +182,10 @@ class DeformNeRF(NeRFMLP):
   @nn.compact
   def __call__(self, points, viewdirs=None, density_noise_key=None, density_noise=0.0,
                times=None, band_fraction=None):
-    """Args: points [..., 3]; viewdirs [..., 3] or None; times [..., 1] in [0, 1];
-    band_fraction: FreeNeRF's mask position over the encodings of x, t (the
-    deformation's input) and of the canonical NeRF, or None for none.
-
-    Returns: sigma [...] >= 0 and rgb [..., 3] in (0, 1).
-    """
+    """points [..., 3], viewdirs [..., 3] or None, times [..., 1] in [0, 1] ->
+    sigma [...] >= 0, rgb [..., 3] in (0, 1). band_fraction: FreeNeRF's mask
+    over the encodings of x, t (the deformation's input) and of the canonical
+    NeRF, or None."""
     if times is None:
       raise ValueError("DeformNeRF needs times [..., 1] (a dynamic scene)")
     shape = points.shape[:-1]
@@ -259,10 +254,8 @@ class EPINeRF(nn.Module):
 
   @nn.compact
   def __call__(self, points, viewdirs, density_noise_key=None, density_noise=0.0):
-    """Args: points [..., 3] (s', t', theta); viewdirs [..., 2] (u, v).
-
-    Returns: sigma [...] >= 0 and rgb [..., 3] in (0, 1).
-    """
+    """points [..., 3] (s', t', theta), viewdirs [..., 2] (u, v) -> sigma
+    [...] >= 0, rgb [..., 3] in (0, 1)."""
     shape = points.shape[:-1]
     points, viewdirs = _rows(points), _rows(jnp.broadcast_to(viewdirs, (*shape, 2)))
     stream = encoding.FourierStream

@@ -92,31 +92,20 @@ def per_ray_keys(key, num_rays: int, randomized: bool, noise: float):
 def render_rays(model, sampler_cfg, params, origins, dirs, key, *, near, far,
                 white_background, randomized, noise=0.0, guide: Optional[Guide] = None,
                 times=None, window=None, coarse_params=None, band_fraction=None):
-  """Renders rays with a NeRF stage's sampler.
+  """Renders rays origins, dirs [R, 3] (unit dirs) between scalar near and
+  far with a NeRF stage's sampler (sampler_cfg, its `sampler` section): each
+  ray's samples drawn from its own key (per-ray keys [R, 2], or one key when
+  nothing is drawn) by the per-ray samplers (SamplerSpec.edges,
+  samplers.hierarchical), mapped over the rays here. Returns the render
+  dicts, coarse first; the last is the final rendering.
 
-  Each ray's samples are drawn from its own key by the per-ray samplers
-  (SamplerSpec.edges, samplers.hierarchical), mapped over the rays here.
-
-  Args:
-    model: a radiance field (models.NeRFMLP or alike); sampler_cfg: the
-      stage's `sampler` config.
-    params: model parameters.
-    coarse_params: a second field's parameters for the first pass of an
-      importance sampler (NeRF's coarse MLP); None: `params` serve both.
-    band_fraction: FreeNeRF's P.E. mask position passed to the field, or None.
-    origins, dirs: [R, 3] rays (dirs unit length).
-    key: per-ray keys [R, 2], or one key when nothing is drawn (randomized
-      False, noise 0).
-    near, far: scalar bounds.
-    randomized: jitter samples (training) or not (evaluation).
-    noise: density noise std (training only).
-    guide: ray field for sampler_cfg.kind == 'depth_guided'.
-    times: [R, 1] ray times for a dynamic field, else None.
-    window: the guided samplers' half window (None: sampler_cfg.window);
-      sampler_cfg.num_full of a guided sampler's samples span all of [near, far].
-
-  Returns:
-    list of render dicts, coarse first; the last is the final rendering.
+  coarse_params: a second field's parameters for an importance sampler's
+  first pass (NeRF's coarse MLP; None: `params` serve both). randomized:
+  jitter (training) or not (evaluation); noise: density noise std. guide:
+  the guided samplers' ray field; window: their half window (None:
+  sampler_cfg.window), sampler_cfg.num_full of their samples spanning all
+  of [near, far]. times [R, 1]: a dynamic field's; band_fraction: FreeNeRF's
+  mask position (models.band_weights) or None.
   """
   spec = samplers.SAMPLERS.get(sampler_cfg.kind, "sampler.kind")
   keys = per_ray_keys(key, origins.shape[0], randomized, noise)

@@ -18,13 +18,9 @@ def compute_weights(sigma, t_edges):
   product of (1 - alpha): the product underflows and loses all precision once
   alpha rounds to 1, the sum does not.
 
-  Args:
-    sigma: [..., N] non-negative densities, one per interval.
-    t_edges: [..., N + 1] sorted interval edges along the ray; intervals may be
-      0 long, as long as 1e10, or infinite (an inf edge).
-
-  Returns:
-    weights [..., N], and transmittance after the last interval [...].
+  sigma [..., N] >= 0, one per interval of sorted t_edges [..., N + 1]
+  (intervals may be 0 long, as long as 1e10, or infinite: an inf edge) ->
+  weights [..., N] and the transmittance after the last interval [...].
   """
   delta = interval_lengths(t_edges)
   # sigma * delta can be 0 * inf-like; clamp so it never becomes NaN or inf.
@@ -48,18 +44,11 @@ def interval_midpoints(t_edges):
 
 
 def volume_render(sigma, rgb, t_edges, white_background: bool = True):
-  """Composites colours along rays.
-
-  Args:
-    sigma: [..., N] densities.
-    rgb: [..., N, 3] colours in [0, 1].
-    t_edges: [..., N + 1] interval edges (distances along unit-norm rays).
-    white_background: composite onto white, C + (1 - acc).
-
-  Returns:
-    dict with rgb [..., 3], depth [...] (expected, sum w t_mid; 0 where empty),
-    depth_max [...] (t_mid of the largest weight), acc [...] (opacity) and
-    weights [..., N].
+  """Composites colours rgb [..., N, 3] in [0, 1] with densities sigma
+  [..., N] over t_edges [..., N + 1] (distances along unit-norm rays), onto
+  white (C + 1 - acc) with white_background. Returns {rgb [..., 3], depth
+  [...] (expected, sum w t_mid; 0 where empty), depth_max [...] (t_mid of the
+  largest weight), acc [...] (opacity), weights [..., N]}.
   """
   weights, _ = compute_weights(sigma, t_edges)
   t_mid = interval_midpoints(t_edges)

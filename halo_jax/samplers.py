@@ -45,21 +45,11 @@ class SamplerSpec:
 
   def edges(self, sampler_cfg, key, near, far, *, guide_depth=None, window=None,
             num_full: int = 0, randomized: bool = True):
-    """Interval edges [N + 1] of one ray for the first (or only) pass.
-
-    Args:
-      sampler_cfg: the stage's `sampler` config (num_samples, num_coarse,
-        window, near_only).
-      key: one PRNG key (unused when randomized is False).
-      near, far: the ray's bounds (scalars).
-      guide_depth: a guided sampler's guide depth on this ray (scalar).
-      window: a guided sampler's half window, a fraction of far - near (may
-        be traced); None for sampler_cfg.window.
-      num_full: guided samplers: of the num_samples intervals, this many
-        stratified over all of [near, far] and the rest (less the one
-        interval the union adds) in the window (with_full_range).
-      randomized: jitter the samples.
-    """
+    """Interval edges [N + 1] of one ray (scalar near, far, guide_depth; one
+    PRNG key) for the first (or only) pass. window: a guided sampler's half
+    window as a fraction of far - near (may be traced; None: sampler_cfg's);
+    num_full: of a guided sampler's intervals, this many stratified over all
+    of [near, far], the rest (less the one the union adds) in the window."""
     n = sampler_cfg.num_coarse if self.importance else sampler_cfg.num_samples
     if not self.guided:
       return stratified(key, near, far, n, randomized)
@@ -97,21 +87,10 @@ SAMPLERS.register("joint", SamplerSpec(guided=True, trains_guide=True, dynamic=F
 
 
 def stratified(key, near, far, num_samples: int, randomized: bool = True):
-  """N intervals of equal length in [near, far], jittered as one when training.
-
-  Edges are jittered by one shared uniform offset per interval edge (NeRF's
-  stratified sampling); the first and last edge stay at near and far.
-
-  Args:
-    key: PRNG key, or per-ray keys [R, 2] (see halo_jax.rng); unused when
-      randomized is False.
-    near, far: [...] bounds per ray (or scalars broadcast to the batch).
-    num_samples: N.
-    randomized: jitter the interior edges.
-
-  Returns:
-    t_edges [..., N + 1], sorted, with t_edges[..., 0] = near, [..., -1] = far.
-  """
+  """N intervals of equal length in [near, far] ([...] or scalars), each
+  interior edge jittered uniformly by up to half an interval when randomized
+  (NeRF's stratified sampling). key: a PRNG key or per-ray keys [R, 2]
+  (halo_jax.rng). Returns sorted t_edges [..., N + 1] from near to far."""
   near = jnp.asarray(near, jnp.float32)
   far = jnp.asarray(far, jnp.float32)
   shape = jnp.broadcast_shapes(near.shape, far.shape)
@@ -125,21 +104,11 @@ def stratified(key, near, far, num_samples: int, randomized: bool = True):
 
 
 def depth_window(depth, near, far, radius: float, near_only: bool = False):
-  """The interval the depth-guided sampler fills, DONeRF-style.
-
-  [max(near, d - r (far - near)), min(far, d + r (far - near))]. `near_only`
-  keeps far as the upper bound (the authors' variant). A depth outside
-  [near, far] is clipped into it first; a NaN depth gives the whole [near, far].
-
-  Args:
-    depth: [...] predicted depth.
-    near, far: scalars or [...].
-    radius: r, as a fraction of far - near.
-    near_only: tighten only the near side.
-
-  Returns:
-    (lo, hi), each [...].
-  """
+  """The interval (lo, hi), each [...], that the depth-guided sampler fills
+  around depth d [...], DONeRF-style: [max(near, d - r (far - near)),
+  min(far, d + r (far - near))], r = radius. `near_only` keeps far as the
+  upper bound (the authors' variant). A depth outside [near, far] is clipped
+  into it first; a NaN depth gives the whole [near, far]."""
   near = jnp.asarray(near, jnp.float32)
   far = jnp.asarray(far, jnp.float32)
   finite = jnp.isfinite(depth)
@@ -173,22 +142,11 @@ def depth_guided(key, depth, near, far, num_samples: int, radius: float,
 
 
 def with_full_range(key, window_edges, near, far, num_full: int, randomized: bool = True):
-  """Window samples plus `num_full` stratified intervals over all of [near, far].
-
-  The union of both sets of edges, sorted: N + num_full + 1 intervals that
-  tile [near, far], dense inside the window and coarse outside it, so the
-  field can still put density anywhere on the ray (the authors' light-field
-  sampler draws half its samples so).
-
-  Args:
-    key: PRNG key for the full-range samples (per-ray keys [R, 2] allowed).
-    window_edges: [..., N + 1] sorted edges inside [near, far].
-    near, far: [...] bounds (or scalars).
-    num_full: intervals over the whole range (0: window_edges unchanged).
-
-  Returns:
-    t_edges [..., N + num_full + 1], sorted, from near to far.
-  """
+  """Window edges [..., N + 1] plus `num_full` stratified intervals over all
+  of [near, far] (key: theirs): the sorted union, t_edges [..., N + num_full
+  + 1], tiles [near, far] densely inside the window and coarsely outside it,
+  so the field can still put density anywhere on the ray (the authors'
+  light-field sampler draws half its samples so). num_full 0: unchanged."""
   if num_full <= 0:
     return window_edges
   full = stratified(key, jnp.broadcast_to(jnp.asarray(near, jnp.float32),
@@ -205,20 +163,11 @@ def merge_edges(a, b):
 
 def hierarchical(key, t_edges, weights, num_samples: int, randomized: bool = True,
                  eps: float = 1e-5):
-  """Inverse-CDF resampling of a piecewise-constant weight distribution (NeRF).
-
-  Args:
-    key: PRNG key.
-    t_edges: [..., M + 1] edges of the coarse intervals.
-    weights: [..., M] coarse weights (need not sum to 1).
-    num_samples: N, new intervals.
-    randomized: uniform u instead of evenly spaced u.
-    eps: weight floor so a ray with all-zero weights falls back to uniform.
-
-  Returns:
-    t_edges [..., N + 1] drawn from the distribution, sorted, inside the
-    coarse range.
-  """
+  """Inverse-CDF resampling of the piecewise-constant distribution of coarse
+  weights [..., M] (need not sum to 1) over t_edges [..., M + 1] (NeRF):
+  sorted t_edges [..., N + 1] inside the coarse range, N = num_samples, from
+  uniform u (randomized) or evenly spaced u. eps: a weight floor, so a ray
+  with all-zero weights falls back to uniform."""
   weights = jax.lax.stop_gradient(weights) + eps
   pdf = weights / weights.sum(-1, keepdims=True)
   cdf = jnp.concatenate([jnp.zeros_like(pdf[..., :1]),
@@ -237,19 +186,12 @@ def hierarchical(key, t_edges, weights, num_samples: int, randomized: bool = Tru
 def blended_window(guide, near, far, width):
   """The authors' light-field sampling window (their update_sample_near_far).
 
-  Half-width width / 2 of the range around the guide, clipped to it, then
-  blended towards the range ends by 1 - width: [w lo' + (1 - w) near,
-  w hi' + (1 - w) far]. Away from the ends its length is (1 - w + w^2) of
-  the range: all of it at w = 1 and at w = 0, 75% at w = 0.5, 91% at
-  w = 0.1. It never narrows to w of the range; it shifts towards the guide.
-
-  Args:
-    guide: [...] the ray field's depth.
-    near, far: the range (scalars or [...]).
-    width: w in (0, 1], the window's width as a share of the range (may be traced).
-
-  Returns:
-    (lo, hi), each [...].
+  Half-width w / 2 of the range around the guide [...] (the ray field's
+  depth), clipped to it, then blended towards the range ends by 1 - w:
+  (lo, hi) = (w lo' + (1 - w) near, w hi' + (1 - w) far), w = width in (0, 1]
+  (may be traced). Away from the ends its length is (1 - w + w^2) of the
+  range: all of it at w = 1 and at w = 0, 75% at w = 0.5, 91% at w = 0.1. It
+  never narrows to w of the range; it shifts towards the guide.
   """
   near = jnp.asarray(near, jnp.float32)
   far = jnp.asarray(far, jnp.float32)
@@ -263,20 +205,12 @@ def blended_edges_of(u_window, u_jitter, guide, near, far, width, num_full: int,
                      randomized: bool = True):
   """The authors' light-field samples as interval edges, from given uniforms.
 
-  `num_full` points evenly over [near, far] (ends included) and
-  len(u_window) points uniform in blended_window, sorted; when randomized
-  each point is moved uniformly within the half-gaps to its neighbours
-  (their perturb); the points are the left edges of their intervals, the
-  last interval as long as the one before it (their `dist`).
-
-  Args:
-    u_window: [M] uniforms in [0, 1) placing the window's points.
-    u_jitter: [num_full + M] uniforms for the perturbation.
-    guide, near, far, width: as blended_window (scalars: one ray).
-    num_full: K evenly spaced points.
-
-  Returns:
-    t_edges [K + M + 1], sorted.
+  K = num_full points evenly over [near, far] (ends included) and M points
+  in blended_window (one ray: scalars) placed by u_window [M] in [0, 1),
+  sorted; when randomized each point moves within the half-gaps to its
+  neighbours by u_jitter [K + M] (their perturb). The points are the left
+  edges of their intervals, the last as long as the one before it (their
+  `dist`): sorted t_edges [K + M + 1].
   """
   lo, hi = blended_window(guide, near, far, width)
   points = jnp.sort(jnp.concatenate([jnp.linspace(near, far, num_full),

@@ -2,18 +2,13 @@
 
   halo-compare --config=configs/blender.py:lego_8view_cpu --workdir=DIR
 
-Trains each of --methods (default: all five of halo_jax.methods: nerf_paper,
-nerf_tuned, freenerf, halo, halo+freenerf; docs/baselines.md) for
-`config.budget_s` reference seconds (the 'budget' protocol, halo_jax/protocol.py:
-each method's step counts come from the committed step table, so every method
-trains the same on any machine, and its last stage has no step floor, so none
-trains past the budget; held-out evaluations are not counted), evaluates all
-on the same held-out views and writes
-DIR/results.json, DIR/results.md and DIR/psnr_vs_time.png. With
---all_views_reference it also trains nerf_tuned on every training view for
-the same budget (the upper reference). A killed run, launched again with the same
-flags, resumes each method from its last checkpoint (finished stages are not
-retrained: their final states are in DIR/<method>).
+Trains each of --methods (default: the registry's compared methods;
+docs/baselines.md) for `config.budget_s` reference seconds (the 'budget'
+protocol: the same steps on any machine, none past the budget), evaluates
+all on the same held-out views and writes DIR/results.json, results.md and
+psnr_vs_time.png. --all_views_reference also trains nerf_tuned on every
+training view (the upper reference). Launched again with the same flags, a
+killed run resumes each method from its last checkpoint.
 """
 import json
 import os

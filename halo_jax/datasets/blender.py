@@ -79,15 +79,10 @@ def load_image(path: str, factor: int, white_background: bool,
 def load_views(root: str, split: str, factor: int = 1,
                names: Optional[Sequence[str]] = None,
                white_background: bool = True) -> Views:
-  """Loads the views of one split, optionally only those named.
-
-  Args:
-    root: scene folder holding transforms_<split>.json.
-    split: 'train', 'test' or 'val'.
-    factor: integer downscale factor (8 gives 100x100 for 800x800 scenes).
-    names: view names to keep, in this order (e.g. ['r_2', 'r_16']); None = all.
-    white_background: composite RGBA onto white.
-  """
+  """Loads split ('train', 'test', 'val') of the scene folder root (its
+  transforms_<split>.json), only the views `names` in that order (e.g.
+  ['r_2', 'r_16']; None: all), downscaled by the integer factor (8: 100x100
+  from 800x800), RGBA composited onto white with white_background."""
   path, meta = _read_transforms(root, split)
   frames = {view_name(fr["file_path"]): fr for fr in meta["frames"]}
   if names is None:

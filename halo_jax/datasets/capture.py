@@ -9,23 +9,12 @@ data.root is read in this order:
   images/ (or the photos   no model yet: features, exhaustive matching and
   in data.root itself)     incremental mapping by pycolmap, cached in sparse/
 
-Cameras. Views here have one pinhole camera: square pixels, the principal
-point at the image centre. COLMAP's SIMPLE_RADIAL, RADIAL and OPENCV cameras
-are undistorted first (pycolmap, cached in undistorted/); a model or
-transforms.json that still differs from one centred pinhole is refused with
-one line naming the camera.
-
-Geometry. A 360-degree capture (data.kind='capture') is recentred on the
-point nearest every camera's viewing axis, turned so that the cameras' mean
-up is +z, and scaled so the cameras lie at the Blender scenes' radius; near
-and far come from the sparse points. A forward-facing one
-(data.kind='capture_ff') gets LLFF's treatment: per-camera depth bounds from
-the sparse points, and NDC rays. Each kind checks the capture looks like it.
-
-Views. data.train_views='farthest:K' picks K training cameras by farthest
-point sampling on the camera centres (from the first by name; deterministic);
-data.test_views='all' holds out every other camera, or a view spec over
-them (a list, 'every:K').
+Views have one centred pinhole camera (COLMAP's distorted cameras are
+undistorted first, by pycolmap). A 360-degree capture (data.kind='capture')
+is recentred, turned z-up and scaled to the Blender scenes' radius; a
+forward-facing one ('capture_ff') gets LLFF's depth bounds and NDC rays.
+data.train_views='farthest:K' picks K cameras by farthest point sampling.
+docs/capture.md gives each step and what is refused.
 """
 import dataclasses
 import os

@@ -25,15 +25,9 @@ def grey_255(images):
 
 
 def spectrum_mask(spec_a, spec_b, mask_fraction: float):
-  """Coefficients kept by the criterion: True except DC and the largest ones.
-
-  Args:
-    spec_a, spec_b: [..., H, W] complex spectra of one pair.
-    mask_fraction: share of coefficients (by mean magnitude) dropped.
-
-  Returns:
-    [..., H, W] bool.
-  """
+  """The coefficients [..., H, W] (bool) the criterion keeps of one pair's
+  complex spectra spec_a, spec_b [..., H, W]: all but DC and the
+  mask_fraction share with the largest mean magnitude."""
   mag = 0.5 * (jnp.abs(spec_a) + jnp.abs(spec_b))
   h, w = mag.shape[-2:]
   num_drop = int(round(mask_fraction * h * w))
@@ -47,15 +41,10 @@ def spectrum_mask(spec_a, spec_b, mask_fraction: float):
 
 
 def spectrum_difference(images_a, images_b, mask_fraction: float = 0.01):
-  """sigma = mean_i mean_kept |F(I_a,i) - F(I_b,i)|.
-
-  Args:
-    images_a, images_b: [N, H, W, 3] pairs of renders in [0, 1].
-    mask_fraction: share of the largest coefficients dropped (beside DC).
-
-  Returns:
-    scalar sigma (grey levels; 0 for identical or constant images).
-  """
+  """sigma = mean_i mean_kept |F(I_a,i) - F(I_b,i)| of pairs of renders
+  images_a, images_b [N, H, W, 3] in [0, 1], beside DC the mask_fraction
+  share of the largest coefficients dropped: a scalar in grey levels (0 for
+  identical or constant images)."""
   fa = jnp.fft.fft2(grey_255(images_a), norm="ortho")
   fb = jnp.fft.fft2(grey_255(images_b), norm="ortho")
   keep = spectrum_mask(fa, fb, mask_fraction)
@@ -87,14 +76,10 @@ def relative_spectrum_difference(images_a, images_b, mask_fraction: float = 0.01
   coefficients, as spectrum_mask. 0 for identical renders; 2 |sin(pi k d / N)|
   for a grating of k cycles across N pixels shifted by d pixels (mask 0).
 
-  Args:
-    images_a, images_b: [N, H, W, 3] (or [N, H, W]) pairs of renders, linear
-      in brightness (not clipped here, so a brightened pair keeps its ratio).
-    mask_fraction: share of the largest coefficients dropped beside DC.
-    size: criterion resolution (0: the images' own).
-
-  Returns:
-    scalar rho >= 0 (0 where a pair's kept spectrum is all zero).
+  images_a, images_b: [N, H, W, 3] (or [N, H, W]) pairs of renders, linear in
+  brightness (not clipped here, so a brightened pair keeps its ratio); size:
+  the criterion resolution (0: the images' own). Returns rho >= 0 (0 where a
+  pair's kept spectrum is all zero).
   """
   grey = lambda x: x.mean(-1) if x.ndim == 4 else x
   a, b = grey(jnp.asarray(images_a, jnp.float32)), grey(jnp.asarray(images_b, jnp.float32))

@@ -268,16 +268,12 @@ def warp_onto(rgb_a, rgb_b, landed, acc_a):
 def make(render, dataset, num: int, size: int, shift_px: float, seed: int, chunk: int) -> dict:
   """Renders `num` pairs whose median surface displacement is `shift_px`.
 
-  Args:
-    render: fn(o, d[, t]) -> {'rgb', 'depth', 'acc'} (restore's renderer).
-    dataset: the scene (its training views place the pairs).
-    num, size, shift_px, seed: pairs, criterion short side, displacement, rng.
-    chunk: rays per rendering call.
-
-  Returns:
-    {'a', 'b': [num, h, w, 3] renders; 'b_warped': b resampled onto a by a's
-     depth (warp_onto); 'steps': [num] (kind's units),
-     'shift_px': [num] measured displacement of each pair; 'kind', 'unit'}.
+  render: fn(o, d[, t]) -> {'rgb', 'depth', 'acc'} (restore's renderer),
+  `chunk` rays a call; the dataset's training views place the pairs; size:
+  the criterion's short side. Returns {'a', 'b': [num, h, w, 3] renders;
+  'b_warped': b resampled onto a by a's depth (warp_onto); 'steps': [num]
+  (the kind's units); 'shift_px': [num] each pair's measured displacement;
+  'kind', 'unit'}.
   """
   name = dataset.facts.pair_kind
   if not name:

@@ -9,17 +9,10 @@ nerfbaselines' own process, so numpy and jax are ours.
 Training is our pipeline, unchanged: its stages run on a thread of their own
 whose loop takes one step each time nerfbaselines calls train_iteration
 (stages/pacing.py), so Lo-NeRF, the ray field and Hi-NeRF are one run of
-sum(steps) iterations. Config overrides (`nerfbaselines train --set k=v`):
-
-  config=FILE.py:VARIANT   our config the run starts from (or, from Python,
-                           a ConfigDict; default by scene
-                           kind: blender.py:lego_8view for the Blender
-                           layout, capture.py:8view or :8view_ff for captures;
-                           only its method and model sections matter, the
-                           views are nerfbaselines')
-  cpu=True                 the default config's _cpu variant (small models)
-  scene_kind=KIND          object, capture or forward (default: detected)
-  a.b.c=VALUE              any field of our config, checked by name
+sum(steps) iterations. Config overrides (`nerfbaselines train --set k=v`,
+docs/capture.md): config=FILE.py:VARIANT (the config the run starts from;
+only its method and model sections matter, the views are nerfbaselines'),
+cpu=True, scene_kind=KIND (object, capture or forward) and a.b.c=VALUE.
 
 A checkpoint is our workdir, copied, beside halo-nerfbaselines.json (the
 config and the frame the scene was moved into) and scene.npz (the training

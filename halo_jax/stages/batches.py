@@ -72,20 +72,14 @@ def index_data(num_views: int, height: int, width: int, precrop_frac: float) -> 
 
 def draw(k_idx, k_crop, step, num_rays: int, batch: int, index, precrop_steps: int,
          one_image: bool = False, fg_steps: int = 0, fg_fraction: float = 0.0):
-  """Indices [batch] into the flat training rays.
-
-  Args:
-    k_idx, k_crop: PRNG keys (pixels, crop and foreground pixels).
-    step: the training step (traced).
-    num_rays: training rays in all (static).
-    batch: rays per step.
-    index: index_data's arrays (on device; unused, may be None, without
-      precrop_steps, one_image and fg_steps), with 'fg_idx' for fg_steps.
-    precrop_steps: steps drawn from the centre crop only (0: none).
-    one_image: draw the step's rays from one random view.
-    fg_steps, fg_fraction: for the first fg_steps steps, that fraction of the
-      batch comes from the foreground pixels (pixels_of's background), the
-      rest from all pixels.
+  """Indices [batch] into the num_rays (static) flat training rays at the
+  traced `step`, drawn with keys k_idx (pixels) and k_crop (crop and
+  foreground pixels). index: index_data's arrays on device (may be None
+  without precrop_steps, one_image and fg_steps; 'fg_idx' for fg_steps).
+  precrop_steps: steps drawn from the centre crop only; one_image: each
+  step's rays from one random view; for the first fg_steps steps,
+  fg_fraction of the batch from the foreground pixels (not pixels_of's
+  background), the rest from all pixels.
   """
   if fg_steps > 0:
     idx = draw(k_idx, k_crop, step, num_rays, batch, index, precrop_steps, one_image)

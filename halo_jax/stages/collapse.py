@@ -120,23 +120,16 @@ def judge(records: Sequence[Tuple[int, float]], baseline: Optional[Baseline], *,
 
 def verdict(train_psnr: Sequence[Tuple[int, float]], constant: Optional[float], *,
             margin_db: float, after_steps: int, window: float, judged_from: int = 0) -> dict:
-  """The verdict on a stage from its logged (step, training PSNR) records.
-
-  Args:
-    train_psnr: [(step, batch PSNR)] in step order, as logged; a record at
-      step s is the batch of the s-th step (steps counted from 1).
-    constant: `constant_psnr` of the stage's training pixels (None: unchecked).
-    margin_db: how far above the constant a stage that learned must be.
-    after_steps: stages that stopped before this step are not judged.
-    window: the judged records are those in the last `window` of the steps
-      trained (at least the last MIN_RECORDS records after `judged_from`).
-    judged_from: steps up to this one drew biased batches (the centre crop,
-      the foreground start): their records are not judged.
-
-  Returns:
-    {'verdict', 'margin_db', 'after_steps', 'judged_from'[, 'train_psnr',
-    'constant_psnr', 'window': [first step, last step]]} (no figures when
-    nothing was logged after `judged_from`).
+  """The verdict on a stage from its logged records train_psnr [(step, batch
+  PSNR)] in step order (the record at step s: the s-th step's batch, counted
+  from 1) against `constant`, the constant_psnr of its training pixels (None:
+  unchecked). A stage that learned is margin_db above it over the last
+  `window` of the steps trained (at least MIN_RECORDS records); a stage that
+  stopped before after_steps is not judged, nor are the records up to
+  judged_from (biased batches: the centre crop, the foreground start).
+  Returns {'verdict', 'margin_db', 'after_steps', 'judged_from'[,
+  'train_psnr', 'constant_psnr', 'window': [first step, last step]]} (no
+  figures when nothing was logged after `judged_from`).
   """
   out = {"verdict": UNCHECKED, "margin_db": margin_db, "after_steps": after_steps,
          "judged_from": int(judged_from)}

@@ -99,24 +99,14 @@ def ray_field_tau(ray_model, params, uv, st):
 
 def render_rays(model, ray_model, cfg, params, rays: Rays, key, alpha, *, theta_n, theta_f,
                 randomized, noise=0.0, slope="angle"):
-  """Renders two-plane rays with the stage's sampler.
-
-  Args:
-    model, ray_model: EPINeRF and EPIRayField (None unless the sampler
-      trains its guide, 'joint').
-    cfg: the stage config (sampler, joint).
-    params: {'nerf'[, 'ray']}.
-    rays: rays.Rays [R], origins (u, v, 0) and dirs (s, t, 1).
-    key: per-ray keys [R, 2], or one key when nothing is drawn.
-    alpha: the joint window scale (scalar).
-    theta_n, theta_f: the range tau spans (angles; depths with slope 'depth').
-    slope: how the range reads (lightfield.SLOPES, the dataset's epi_slope).
-    randomized: jitter samples; noise: density noise std.
-
-  Returns:
-    raycast.composite's dict (depth = expected tau) plus tau_ray [R] for the
-    joint sampler and rgb_ray [R, 3] where the ray field has a colour head
-    (else None).
+  """Renders two-plane rays [R] (origins (u, v, 0), dirs (s, t, 1)) with the
+  stage's sampler (cfg: sampler, joint): EPINeRF `model` and, where the
+  sampler trains its guide ('joint'), EPIRayField `ray_model`, params
+  {'nerf'[, 'ray']}; per-ray keys [R, 2] (one key when nothing is drawn);
+  alpha: the joint window's scale; tau spans theta_n..theta_f (angles, or
+  depths with slope 'depth': lightfield.SLOPES, the dataset's epi_slope).
+  Returns raycast.composite's dict (depth = expected tau) plus tau_ray [R]
+  for the joint sampler and rgb_ray [R, 3] (None without a colour head).
   """
   uv, st = rays.origins[:, :2], rays.dirs[:, :2]
   keys = raycast.per_ray_keys(key, uv.shape[0], randomized, noise)

@@ -217,27 +217,19 @@ def train(name: str, cfg, workdir: str, params, loss_fn: Callable, data, seed: i
   """Trains `params` on `loss_fn` for cfg.steps (or cfg.max_seconds, but never
   fewer than cfg.min_steps) and returns them.
 
-  Args:
-    name: stage name, used for the checkpoint folder and log records.
-    cfg: the stage config (steps, lr_*, max_seconds, *_every).
-    workdir: run folder; checkpoints go to <workdir>/<name>/checkpoints.
-    params: initial parameters (ignored if a checkpoint exists: training resumes).
-    loss_fn: (params, data, key, step, part=None) -> (loss, aux dict of scalars),
-      called on part=(i, microbatches) of its batch when cfg.microbatches > 1.
-    data: pytree of device arrays the loss reads (rays, targets, ...).
-    seed: base PRNG seed.
-    eval_fn: (params, step) -> dict of held-out metrics (e.g. {'psnr': ...}).
-    log: metrics.jsonl writer.
-    wall_offset: training seconds spent by earlier stages of the same method,
-      added to wall_s in the log so curves of a whole pipeline line up.
-    mesh: data-parallel mesh (parallel.make_mesh) or None; state and data are
-      replicated on it and loss_fn shards its batch.
-    snapshot_s: the method's training seconds (wall_offset included) at which
-      to save the parameters for its error-against-time front (snapshots.py).
-    pacer: a pacing.Pacer whose driver grants every step (or None: free).
-    baseline: the collapse check's collapse.Baseline (None: not judged).
-    select_fn: (params, step) -> PSNR on validation views at every held-out
-      evaluation; the best-scoring parameters are returned (selection.py).
+  Checkpoints go to <workdir>/<name>/checkpoints; an existing one resumes
+  training (`params` ignored). loss_fn: (params, data, key, step, part=None)
+  -> (loss, aux dict of scalars), called on part=(i, microbatches) of its
+  batch when cfg.microbatches > 1; data: the device arrays it reads. eval_fn:
+  (params, step) -> held-out metrics; log: the metrics.jsonl writer, wall_s
+  offset by the earlier stages' wall_offset so a pipeline's curves line up.
+  mesh: a data-parallel mesh (parallel.make_mesh; state and data replicated,
+  loss_fn shards its batch) or None. snapshot_s: the method's training
+  seconds (wall_offset included) at which to save the parameters for its
+  error-against-time front (snapshots.py). pacer: a pacing.Pacer whose driver
+  grants every step (None: free). baseline: the collapse check's (None: not
+  judged). select_fn: (params, step) -> PSNR on validation views at every
+  held-out evaluation; the best parameters are returned (selection.py).
 
   Returns:
     (params, step, info), info = {'wall_s', 'skipped', 'compile_s', 'past_time_cap',
