@@ -109,6 +109,8 @@ def _dynamic_hi_study(budget_s: float) -> Study:
           BASELINE,
           Variant("nerf_tuned_time_L_4", "nerf_tuned", (("hi.encoding.time_L", 4),),
                   "the baseline with 4 time frequencies"),
+          Variant("nerf_tuned_no_crop", "nerf_tuned", (("hi.precrop_steps", 0),),
+                  "the baseline without the centre crop"),
       ),
       reference="halo", seeds=2, budget="time", front=False, budget_s=budget_s)
 
