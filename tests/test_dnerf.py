@@ -142,8 +142,9 @@ def test_time_has_its_own_frequencies():
   assert abs(float(jax.grad(f)(0.3))) > 0
 
 
-@pytest.mark.slow
-def test_hi_starts_as_a_copy_of_lo_in_space_and_time():
+def _moving_lo_and_its_copy():
+  """A dynamic Lo whose deformation moves, a Hi copied from it (with_lo), and
+  points x [50, 3] at times t [50, 1]: (lo, p_lo, hi, p, x, t)."""
   lo = models.DeformNeRF(pos_freqs=2, time_freqs=2, width=16, depth=2, skips=(),
                          use_viewdirs=False, deform_width=8, deform_depth=2)
   hi = models.DeformNeRF(pos_freqs=6, time_freqs=4, base_freqs=2, base_time_freqs=2,
@@ -154,6 +155,12 @@ def test_hi_starts_as_a_copy_of_lo_in_space_and_time():
   p = transfer.transfer_from_lo(models.init_nerf(hi, "deform", 1), p_lo, lo_inputs_first=True)
   x = jax.random.normal(jax.random.PRNGKey(2), (50, 3))
   t = jax.random.uniform(jax.random.PRNGKey(3), (50, 1))
+  return lo, p_lo, hi, p, x, t
+
+
+@pytest.mark.slow
+def test_hi_starts_as_a_copy_of_lo_in_space_and_time():
+  lo, p_lo, hi, p, x, t = _moving_lo_and_its_copy()
   for a, b in zip(lo.apply({"params": p_lo}, x, None, times=t),
                   hi.apply({"params": p}, x, None, times=t)):
     np.testing.assert_allclose(a, b, rtol=1e-5, atol=1e-6)
@@ -163,16 +170,7 @@ def test_the_band_mask_on_a_hi_copied_from_lo_hides_only_its_own_bands():
   """hi.freq_reg on HALO's dynamic Hi (budget study's `freq_reg_0.9`): Lo's
   encodings stay open, so the copy is Lo at every mask position, and a Hi
   that has learned high bands loses them at fraction 0."""
-  lo = models.DeformNeRF(pos_freqs=2, time_freqs=2, width=16, depth=2, skips=(),
-                         use_viewdirs=False, deform_width=8, deform_depth=2)
-  hi = models.DeformNeRF(pos_freqs=6, time_freqs=4, base_freqs=2, base_time_freqs=2,
-                         width=16, depth=2, skips=(), use_viewdirs=False, deform_width=8,
-                         deform_depth=2)
-  p_lo = models.init_nerf(lo, "deform", 0)
-  p_lo["offset"]["kernel"] = 0.1 * jnp.ones_like(p_lo["offset"]["kernel"])
-  p = transfer.transfer_from_lo(models.init_nerf(hi, "deform", 1), p_lo, lo_inputs_first=True)
-  x = jax.random.normal(jax.random.PRNGKey(2), (50, 3))
-  t = jax.random.uniform(jax.random.PRNGKey(3), (50, 1))
+  lo, p_lo, hi, p, x, t = _moving_lo_and_its_copy()
   want = lo.apply({"params": p_lo}, x, None, times=t)[0]
   for fraction in (0.0, 0.5):
     np.testing.assert_allclose(
