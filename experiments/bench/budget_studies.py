@@ -18,6 +18,15 @@ def _window(r=0.3, full=0, kind="depth_guided", samples=32, coarse=64):
           ("hi.sampler.num_full", full))
 
 
+# Hi-NeRF's window narrowing from the whole ray, and NeRF's fine pass inside
+# it. Neither sets num_full: each keeps its scene kind's full-range samples
+# (none on 360-degree scenes, 8 of 32 on forward-facing ones, where `full_8`
+# is that default).
+_NARROWING = (("hi.sampler.window_start", 1.0), ("hi.sampler.window_steps", 100))
+_FINE = (("hi.sampler.kind", "depth_guided_fine"), ("hi.sampler.num_coarse", 32),
+         ("hi.sampler.num_samples", 32))
+
+
 def _hi_window_study(budget_s: float) -> Study:
   """Hi-NeRF's samples in and beside the ray field's window, at one budget of
   the budget study (docs/results/budget_study.md)."""
@@ -26,7 +35,11 @@ def _hi_window_study(budget_s: float) -> Study:
       question=("Whether Hi-NeRF keeps HALO's lead as training grows with its 32 samples "
                 "in a narrower window (denser where the surface is), or with some of them "
                 "over the whole ray (a surface the window misses can still form), at equal "
-                "cost, on every scene whose Hi the window samples."),
+                "cost; with a window that narrows from the whole ray; or with a fine pass "
+                "of 32 more samples drawn from the window's weights, at equal reference "
+                "time; on every scene whose Hi the window samples. `narrowing` and "
+                "`fine_32+32` keep the scene kind's full-range samples, so on fern_4view "
+                "they compare with `full_8` (its default)."),
       scenes=_DEPTH_GUIDED,
       variants=(
           Variant("halo", "halo", _window(), "32 samples in r = 0.3 (the CPU config)"),
@@ -35,6 +48,12 @@ def _hi_window_study(budget_s: float) -> Study:
                   "23 samples in r = 0.3 and 8 over the whole ray"),
           Variant("window_0.15+full_8", "halo", _window(r=0.15, full=8),
                   "23 samples in r = 0.15 and 8 over the whole ray"),
+          Variant("narrowing", "halo", _NARROWING,
+                  "32 samples in a window narrowing from the whole ray (r = 1) to r = 0.3 "
+                  "over Hi's first 100 steps"),
+          Variant("fine_32+32", "halo", _FINE,
+                  "32 samples in r = 0.3, then 32 drawn from their weights, composited "
+                  "together (NeRF's fine pass in the window; fewer steps in the same time)"),
           BASELINE,
       ),
       reference="halo", seeds=2, budget="time", front=False, budget_s=budget_s)

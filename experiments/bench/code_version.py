@@ -134,22 +134,28 @@ def record(commit: str, runs: dict, views: int, path: str = FILE, digests=None) 
   return f"recorded {len(methods)} fingerprints for code tree {tree} ({commit[:7]}) in {path}"
 
 
+def suite_step_keys() -> dict:
+  """{method: the step-table keys its runs in the suites use} (not the
+  studies' variants, whose records carry their own step counts)."""
+  from experiments.bench import benchmark, step_times  # pylint: disable=import-outside-toplevel
+  keys = {}
+  for suite, scene, method in step_times.pairs(groups=step_times.SUITE_GROUPS):
+    c = benchmark.configure(suite, scene, method, 0, "budget", "/tmp/halo_step_table_digest")
+    keys.setdefault(method, set()).update(step_times.keys_of(c).values())
+  return keys
+
+
 def step_table_digests(path: str = "") -> dict:
   """{method: 12 hex digits of the committed step table's entries (step and
   set-up seconds) for every key the suites use for the method}: the
   fingerprint run writes its own table, so this companion is what sees a
   change of the committed one (a changed entry moves a suite's step counts)."""
   from halo_jax import step_table  # pylint: disable=import-outside-toplevel
-  from experiments.bench import benchmark, step_times  # pylint: disable=import-outside-toplevel
   entries = step_table.load(path)
-  keys = {}
-  for suite, scene, method in step_times.pairs():
-    c = benchmark.configure(suite, scene, method, 0, "budget", "/tmp/halo_step_table_digest")
-    keys.setdefault(method, set()).update(step_times.keys_of(c).values())
   return {m: hashlib.sha256(json.dumps(
       {k: [entries.get(k, {}).get("step_s"), entries.get(k, {}).get("setup_s")]
        for k in sorted(ks)}, sort_keys=True).encode()).hexdigest()[:12]
-          for m, ks in sorted(keys.items())}
+          for m, ks in sorted(suite_step_keys().items())}
 
 
 def step_table_changes(table: dict, now: dict = None) -> list:

@@ -73,10 +73,19 @@ def write_table(path: str, entries: dict, machine_record: dict) -> None:
       indent=1, sort_keys=True) + "\n")
 
 
-def pairs(only: str = ""):
-  """[(suite, scene, method)] of every suite, scene and method, each once."""
+# The groups above whose runs are the suites' (what a fingerprint covers): a
+# study's variant records its own step counts, and a new one must not mark
+# every suite's figures stale.
+SUITE_GROUPS = ("cpu", "validation", "smoke")
+
+
+def pairs(only: str = "", groups=None):
+  """[(suite, scene, method)] of every suite, scene and method of `groups`
+  (None: every group, studies' variants too), each once."""
   out, seen = [], set()
-  for _, suite, scenes in SUITES:
+  for group, suite, scenes in SUITES:
+    if groups is not None and group not in groups:
+      continue
     for scene in scenes:
       for method in scene.methods:
         tag = (suite.budget_s, scene.config, scene.overrides, method)
