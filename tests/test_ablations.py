@@ -138,3 +138,18 @@ def test_a_variant_that_is_a_suite_run_adopts_its_record(tmp_path):
   made.hi.lr_init *= 2
   _write(path, dict(record, resolved_config=json.loads(made.to_json_best_effort())))
   assert same(c) is None
+
+
+def test_knights_baseline_at_halos_steps_trains_exactly_halos_count(tmp_path):
+  """knights_steps: the baseline stopped where halo's costlier step stops it
+  in the same reference time, its schedule as written (the plain baseline's)."""
+  from halo_jax import protocol
+  for budget in (60, 240):
+    name = f"knights_steps_{budget}"
+    halo = protocol.resolve(_configured(name, "knights", "halo", 0, tmp_path)[2])
+    base = protocol.resolve(_configured(name, "knights", "nerf_tuned", 0, tmp_path)[2])
+    same = protocol.resolve(_configured(name, "knights", "nerf_tuned_halo_steps", 0,
+                                        tmp_path)[2])
+    assert base.hi.budget_steps > halo.hi.budget_steps  # the baseline's step is cheaper
+    assert same.hi.budget_steps == halo.hi.budget_steps == same.hi.stop_at_step
+    assert same.hi.steps == base.hi.steps and same.hi.lr_init == base.hi.lr_init

@@ -134,8 +134,42 @@ def _dynamic_hi_study(budget_s: float) -> Study:
       reference="halo", seeds=2, budget="time", front=False, budget_s=budget_s)
 
 
+def _halo_hi_steps(scene: suites.Scene, budget_s: float) -> int:
+  """The steps halo's Hi-NeRF trains on `scene` at `budget_s` reference
+  seconds (the committed step table's count)."""
+  import dataclasses  # pylint: disable=import-outside-toplevel
+  from halo_jax import protocol  # pylint: disable=import-outside-toplevel
+  from experiments.bench import benchmark  # pylint: disable=import-outside-toplevel
+  terms = dataclasses.replace(suites.CPU, budget_s=budget_s)
+  return protocol.resolve(benchmark.configure(terms, scene, "halo", 0, "budget",
+                                              "/tmp/halo_study_steps")).hi.budget_steps
+
+
+def _knights_steps_study(budget_s: float) -> Study:
+  """knights: how much of nerf_tuned's lead is the steps HALO's costlier
+  step leaves out, at one budget of the budget study."""
+  knights = tuple(s for s in suites.VALIDATION_SCENES if s.name == "knights")
+  steps = _halo_hi_steps(knights[0], budget_s)
+  return Study(
+      title=f"knights: nerf_tuned at HALO's step count, {budget_s:g} reference seconds",
+      question=("How much of nerf_tuned's lead on the light field is the steps it gains "
+                "because HALO's step (its ray field trained with the stage) costs more: "
+                "nerf_tuned stopped at the steps halo trains in the same reference time "
+                "(its schedules as written), so that the two differ only by what a step "
+                "does."),
+      scenes=knights,
+      variants=(
+          Variant("halo", "halo", (), "the CPU config"),
+          BASELINE,
+          Variant("nerf_tuned_halo_steps", "nerf_tuned", (("hi.stop_at_step", steps),),
+                  f"the baseline stopped at halo's {steps} steps"),
+      ),
+      reference="halo", seeds=2, budget="time", front=False, budget_s=budget_s)
+
+
 STUDIES = {
     **{f"hi_window_{b:g}": _hi_window_study(b) for b in suites.BUDGET_STUDY.values()},
     **{f"ndc_ray_{b:g}": _ndc_ray_study(b) for b in suites.BUDGET_STUDY.values()},
     **{f"dynamic_hi_{b:g}": _dynamic_hi_study(b) for b in suites.BUDGET_STUDY.values()},
+    **{f"knights_steps_{b:g}": _knights_steps_study(b) for b in suites.BUDGET_STUDY.values()},
 }
