@@ -115,3 +115,21 @@ def test_probe_rays_take_a_regular_grid_within_the_ray_budget():
   np.testing.assert_array_equal(gt, FakeViews.images[:, ::2, ::2])
   np.testing.assert_array_equal(d, gt + 1)
   assert budget_probe.probe_rays(FakeViews(), max_rays=59)[4] == 3
+
+
+def test_shortfalls_name_each_scene_and_budget_with_the_nearest_probe():
+  """A line for every (scene, budget) where halo trails or Hi ends under Lo,
+  read from that budget's probe, or the nearest one's where it has none."""
+  from experiments.bench import probe_report, suites
+  scene, other = suites.BUDGET_SCENES[0], suites.BUDGET_SCENES[1]
+  figures = {(60, scene): (-0.4, 0.3), (240, scene): (0.2, -0.1), (960, scene): (0.5, 0.2),
+             (60, other): (0.1, 0.1), (240, other): (0.1, 0.1), (960, other): (0.1, 0.1)}
+  by_budget = {b: {s: (b, s) for (bb, s) in figures if bb == b} for b in (60, 240, 960)}
+  lead = lambda runs: figures[runs][0] if runs else None
+  gain = lambda runs: figures[runs][1] if runs else None
+  reading = {(960, scene): "Reading: far.", (60, scene): "Reading: near."}
+  lines = probe_report.shortfalls({k: [] for k in reading}, by_budget, gain, lead, reading)
+  body = [l for l in lines if l.startswith("- ")]
+  assert len(body) == 2 and all(scene in l for l in body)
+  assert "at 60 s**: halo − nerf_tuned -0.40 dB. Reading: near." in body[0]
+  assert "Hi − Lo -0.10 dB. Not probed at 240 s; the 60-s probe's reading: near." in body[1]

@@ -1,11 +1,12 @@
 """The budget study page's section on the probes (budget_probe.py): where
-HALO trails at the largest budget and why, the re-rendered PSNRs, and the
+HALO falls short at each budget and why, the re-rendered PSNRs, and the
 differences that change one thing at a time."""
 import os
 
 import numpy as np
 
 from experiments.bench import run_file, suites
+from experiments.bench.paths import REPO
 from experiments.bench.report_common import BASELINE
 
 METHOD = "halo"
@@ -100,16 +101,13 @@ def probe_sentences(ps) -> list:
 
 
 def probe_section(by_key, by_budget, hi_minus_lo, lead) -> list:
-  """The page's section on the probes: where HALO trails at the largest
+  """The page's section on the probes: where HALO falls short at each
   budget and why, a table of re-rendered PSNRs and, per scene and budget,
   what they say (by_budget: study()'s records, for the leads and Hi − Lo)."""
   if not by_key:
     return []
   reading = {k: probe_reading(ps, hi_minus_lo(by_budget.get(k[0], {}).get(k[1], {})))
              for k, ps in by_key.items()}
-  top = max(by_budget)
-  behind = [(s, lead(by_budget[top].get(s, {}))) for s in suites.BUDGET_SCENES]
-  behind = [(s, x) for s, x in behind if x is not None and x < 0]
   cols = ("own", "own_twice_samples", "baseline_sampler", "twice_baseline_samples", BASELINE,
           f"{BASELINE}_twice_samples")
   out = ["## What sets the margin", "",
@@ -121,9 +119,7 @@ def probe_section(by_key, by_budget, hi_minus_lo, lead) -> list:
          "window against each field's surface (the depth of the largest weight, on the rays "
          "both see as opaque), L_empty's share of Hi's loss, and the opacity on background "
          "pixels. Mean over the probed seeds (in brackets).", "",
-         *(f"- At {top:g} s HALO trails on {s} ({x:+.2f} dB). " + (
-             reading[(top, s)] if (top, s) in reading else "Not probed.")
-           for s, x in behind), *([""] if behind else []),
+         *shortfalls(by_key, by_budget, hi_minus_lo, lead, reading),
          "| budget | scene | Hi as scored | Hi, 2× its samples | Hi, nerf_tuned's sampler | "
          "Hi, 2× that | nerf_tuned | nerf_tuned, 2× |", "|---|---|---|---|---|---|---|---|"]
   in_order = sorted(by_key.items(), key=lambda kv: (suites.BUDGET_SCENES.index(kv[0][1]),
@@ -140,6 +136,40 @@ def probe_section(by_key, by_budget, hi_minus_lo, lead) -> list:
   for (b, scene), ps in in_order:
     out += [f"- **{scene} at {b:g} s.** {reading[(b, scene)]} " + " ".join(probe_sentences(ps))]
   return out + [""] + one_at_a_time_lines(in_order)
+
+
+def _studies_of(scene, budget_s) -> str:
+  """' Studies: [name](page), ...' of the budget studies at `budget_s` whose
+  scenes include `scene` and whose page is written ('' where none)."""
+  from experiments.bench import budget_studies  # pylint: disable=import-outside-toplevel
+  names = [n for n, st in budget_studies.STUDIES.items()
+           if st.budget_s == budget_s and any(s.name == scene for s in st.scenes)
+           and os.path.exists(os.path.join(REPO, "docs", "results", f"ablation_{n}.md"))]
+  return (" Studies: " + ", ".join(f"[{n}](ablation_{n}.md)" for n in names) + "."
+          if names else "")
+
+
+def shortfalls(by_key, by_budget, hi_minus_lo, lead, reading) -> list:
+  """A line per scene and budget where halo trails nerf_tuned or Hi-NeRF
+  ends under its own Lo-NeRF, with the probe's reading at that budget, or
+  the nearest budget's where that one is not probed."""
+  out = []
+  for scene in suites.BUDGET_SCENES:
+    for b in sorted(by_budget):
+      runs = by_budget[b].get(scene, {})
+      x, gain = lead(runs), hi_minus_lo(runs)
+      what = ([f"halo − {BASELINE} {x:+.2f} dB"] if x is not None and x < 0 else []) + (
+          [f"Hi − Lo {gain:+.2f} dB"] if gain is not None and gain < 0 else [])
+      if not what:
+        continue
+      probed = sorted((abs(pb - b), pb) for pb, ps in by_key if ps == scene)
+      where = ("Not probed." if not probed else reading[(probed[0][1], scene)]
+               if probed[0][0] == 0 else f"Not probed at {b:g} s; the {probed[0][1]:g}-s "
+               "probe's r" + reading[(probed[0][1], scene)][1:])
+      out.append(f"- **{scene} at {b:g} s**: {', '.join(what)}. {where}"
+                 + _studies_of(scene, b))
+  return (["Where HALO falls short (the scene, the budget, and what the probe nearest "
+           "to it measured):", "", *out, ""] if out else [])
 
 
 def one_at_a_time_lines(in_order) -> list:
