@@ -59,6 +59,10 @@ def trend(leads) -> str:
   return "rises" if change >= TREND_DB else "falls" if change <= -TREND_DB else "holds"
 
 
+# A held-out curve this far under its peak at the end counts as falling.
+FALL_DB = 0.1
+
+
 def _train_level(records, at_s):
   """Median training PSNR within TRAIN_WINDOW_S of `at_s`, over the runs."""
   pts = [p for r in records for t, p in r.get("train_curve", [])
@@ -95,6 +99,14 @@ def overfitting_sentence(method, o) -> str:
   return (f"{method}'s held-out PSNR peaks at {o['peak_s']:.0f} s ({o['peak']:.2f} dB on "
           f"the curve views) and moves {o['heldout_change']:+.2f} dB by "
           f"{o['end_s']:.0f} s{train}.")
+
+
+def falling_curve(by_method) -> str:
+  """halo's overfitting sentence where its held-out curve ends more than
+  FALL_DB under its peak, else ''."""
+  o = overfitting(by_method.get(METHOD, []))
+  return (overfitting_sentence(METHOD, o) if o and o["peak_s"] < o["end_s"]
+          and o["heldout_change"] < -FALL_DB else "")
 
 
 def lo_psnrs(by_method):
@@ -280,7 +292,8 @@ def write(all_suites, docs, results="") -> str:
             *(f"- {overfitting_sentence(m, overfitting(top[m]))}" for m in (BASELINE, METHOD)
               if m in top), "", f"![{s}]({png})", ""]
   if results:
-    out += probe_report.probe_section(probe_report.probes(results), by_budget, hi_minus_lo, lead)
+    out += probe_report.probe_section(probe_report.probes(results), by_budget, hi_minus_lo,
+                                      lead, overfit=falling_curve)
   with open(os.path.join(docs, f"{PAGE}.md"), "w") as f:
     f.write("\n".join(out))
   return readme_sentence(by_budget)

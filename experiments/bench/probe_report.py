@@ -100,10 +100,11 @@ def probe_sentences(ps) -> list:
   return lines
 
 
-def probe_section(by_key, by_budget, hi_minus_lo, lead) -> list:
+def probe_section(by_key, by_budget, hi_minus_lo, lead, overfit=None) -> list:
   """The page's section on the probes: where HALO falls short at each
   budget and why, a table of re-rendered PSNRs and, per scene and budget,
-  what they say (by_budget: study()'s records, for the leads and Hi − Lo)."""
+  what they say (by_budget: study()'s records, for the leads and Hi − Lo;
+  overfit(runs): a sentence on halo's held-out curve falling, or '')."""
   if not by_key:
     return []
   reading = {k: probe_reading(ps, hi_minus_lo(by_budget.get(k[0], {}).get(k[1], {})))
@@ -119,7 +120,7 @@ def probe_section(by_key, by_budget, hi_minus_lo, lead) -> list:
          "window against each field's surface (the depth of the largest weight, on the rays "
          "both see as opaque), L_empty's share of Hi's loss, and the opacity on background "
          "pixels. Mean over the probed seeds (in brackets).", "",
-         *shortfalls(by_key, by_budget, hi_minus_lo, lead, reading),
+         *shortfalls(by_key, by_budget, hi_minus_lo, lead, reading, overfit),
          "| budget | scene | Hi as scored | Hi, 2× its samples | Hi, nerf_tuned's sampler | "
          "Hi, 2× that | nerf_tuned | nerf_tuned, 2× |", "|---|---|---|---|---|---|---|---|"]
   in_order = sorted(by_key.items(), key=lambda kv: (suites.BUDGET_SCENES.index(kv[0][1]),
@@ -149,10 +150,10 @@ def _studies_of(scene, budget_s) -> str:
           if names else "")
 
 
-def shortfalls(by_key, by_budget, hi_minus_lo, lead, reading) -> list:
+def shortfalls(by_key, by_budget, hi_minus_lo, lead, reading, overfit=None) -> list:
   """A line per scene and budget where halo trails nerf_tuned or Hi-NeRF
-  ends under its own Lo-NeRF, with the probe's reading at that budget, or
-  the nearest budget's where that one is not probed."""
+  ends under its own Lo-NeRF, with the probe's reading at that budget (or
+  the nearest budget's where that one is not probed) and `overfit(runs)`."""
   out = []
   for scene in suites.BUDGET_SCENES:
     for b in sorted(by_budget):
@@ -166,8 +167,9 @@ def shortfalls(by_key, by_budget, hi_minus_lo, lead, reading) -> list:
       where = ("Not probed." if not probed else reading[(probed[0][1], scene)]
                if probed[0][0] == 0 else f"Not probed at {b:g} s; the {probed[0][1]:g}-s "
                "probe's r" + reading[(probed[0][1], scene)][1:])
+      note = overfit(runs) if overfit else ""
       out.append(f"- **{scene} at {b:g} s**: {', '.join(what)}. {where}"
-                 + _studies_of(scene, b))
+                 + (f" {note}" if note else "") + _studies_of(scene, b))
   return (["Where HALO falls short (the scene, the budget, and what the probe nearest "
            "to it measured):", "", *out, ""] if out else [])
 
