@@ -133,3 +133,16 @@ def test_shortfalls_name_each_scene_and_budget_with_the_nearest_probe():
   assert len(body) == 2 and all(scene in l for l in body)
   assert "at 60 s**: halo − nerf_tuned -0.40 dB. Reading: near." in body[0]
   assert "Hi − Lo -0.10 dB. Not probed at 240 s; the 60-s probe's reading: near." in body[1]
+
+
+def test_a_probe_of_a_run_trained_again_is_named_with_both_scores():
+  from experiments.bench import probe_report
+  probe = {"seed": 0, "record_psnr": {"halo": 17.0, "nerf_tuned": 18.64}}
+  by_budget = {960: {"dnerf_lego": {"halo": [{"seed": 0, "psnr": 17.0}],
+                                    "nerf_tuned": [{"seed": 0, "psnr": 17.457},
+                                                   {"seed": 1, "psnr": 18.64}]}}}
+  lines = probe_report.retrained_lines({(960, "dnerf_lego"): [probe]}, by_budget)
+  assert len(lines) == 2 and "nerf_tuned seed 0: 18.64 against 17.46 dB" in lines[0]
+  assert "halo seed" not in lines[0]
+  probe["record_psnr"]["nerf_tuned"] = 17.457
+  assert probe_report.retrained_lines({(960, "dnerf_lego"): [probe]}, by_budget) == []

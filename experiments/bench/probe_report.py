@@ -129,7 +129,7 @@ def probe_section(by_key, by_budget, hi_minus_lo, lead, overfit=None) -> list:
     out.append(f"| {b:g} s | {scene} ({len(ps)}) | " + " | ".join(
         "-" if _mean(ps, "psnr", c) is None else f"{_mean(ps, 'psnr', c):.2f}" for c in cols)
         + " |")
-  out.append("")
+  out += ["", *retrained_lines(by_key, by_budget)]
   strides = sorted({p.get("pixel_stride") for ps in by_key.values() for p in ps} - {None})
   out += ["PSNRs on a regular grid of the views' pixels (a stride of "
           f"{', '.join(map(str, strides))} pixels in each direction, by scene), not on every "
@@ -137,6 +137,32 @@ def probe_section(by_key, by_budget, hi_minus_lo, lead, overfit=None) -> list:
   for (b, scene), ps in in_order:
     out += [f"- **{scene} at {b:g} s.** {reading[(b, scene)]} " + " ".join(probe_sentences(ps))]
   return out + [""] + one_at_a_time_lines(in_order)
+
+
+# A probed run whose record differs from the suite's record of the same
+# scene, method and seed by more than this was trained again, not the same.
+SAME_RUN_DB = 0.005
+
+
+def retrained_lines(by_key, by_budget) -> list:
+  """A sentence naming the probes whose runs score otherwise than the suite's
+  records of the same seed (trained again, on another host or with the
+  config of an older commit): their readings are of those runs."""
+  diffs = []
+  for (b, scene), ps in sorted(by_key.items()):
+    for p in ps:
+      for method, mine in sorted(p.get("record_psnr", {}).items()):
+        suite = [r["psnr"] for r in by_budget.get(b, {}).get(scene, {}).get(method, [])
+                 if r.get("seed") == p.get("seed")]
+        if suite and abs(mine - suite[0]) > SAME_RUN_DB:
+          diffs.append(f"{scene} at {b:g} s, {method} seed {p.get('seed')}: "
+                       f"{mine:.2f} against {suite[0]:.2f} dB")
+  if not diffs:
+    return []
+  return ["These probes re-render runs trained again for them, which score otherwise than "
+          "the suite's record of the same scene, method and seed (another host's CPU, or "
+          "an older config: docs/notes/2026-11-28-keep-lead.md); their readings are of the "
+          "probed runs: " + "; ".join(diffs) + ".", ""]
 
 
 def _studies_of(scene, budget_s) -> str:
