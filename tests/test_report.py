@@ -384,9 +384,10 @@ def test_budget_study_says_what_its_probes_measured(tmp_path, monkeypatch):
   suites[("budget_960", "budget")] = {"lego_8view": {**lego, "halo": [behind]}}
   budget_report.write(suites, str(tmp_path), str(tmp_path / "results"))
   page = (tmp_path / "budget_study.md").read_text()
-  assert ("- At 960 s HALO trails on lego_8view (-1.00 dB). Reading: at equal dense sampling Hi's "
-          "field is ahead of") in page
+  assert ("- **lego_8view at 960 s**: halo − nerf_tuned -1.00 dB, Hi − Lo -0.50 dB. Reading: at "
+          "equal dense sampling Hi's field is ahead of") in page
   assert "recovers it); Hi loses 0.50 dB on halo's own Lo-NeRF." in page
+  assert "**lego_8view at 60 s**" not in page
   # no probes: no section
   budget_report.write(suites, str(tmp_path), str(tmp_path / "none"))
   assert "What sets the margin" not in (tmp_path / "budget_study.md").read_text()
