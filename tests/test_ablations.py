@@ -153,3 +153,19 @@ def test_knights_baseline_at_halos_steps_trains_exactly_halos_count(tmp_path):
     assert base.hi.budget_steps > halo.hi.budget_steps  # the baseline's step is cheaper
     assert same.hi.budget_steps == halo.hi.budget_steps == same.hi.stop_at_step
     assert same.hi.steps == base.hi.steps and same.hi.lr_init == base.hi.lr_init
+
+
+def test_dynamic_crop_variants_change_only_his_crop(tmp_path):
+  """dynamic_hi: `hi_crop_50` and `hi_no_crop` differ from halo's D-NeRF run
+  in Hi's centre-crop steps alone, at every budget, so they take halo's step
+  counts."""
+  from halo_jax import protocol
+  for budget in (60, 240, 960):
+    name = f"dynamic_hi_{budget}"
+    halo = protocol.resolve(_configured(name, "dnerf_lego", "halo", 0, tmp_path)[2])
+    assert halo.hi.precrop_steps == 200
+    for variant, crop in (("hi_crop_50", 50), ("hi_no_crop", 0)):
+      c = protocol.resolve(_configured(name, "dnerf_lego", variant, 0, tmp_path)[2])
+      assert c.hi.precrop_steps == crop
+      c.hi.precrop_steps = halo.hi.precrop_steps
+      assert c.to_dict() == halo.to_dict(), variant

@@ -119,6 +119,9 @@ def _dynamic_hi_study(budget_s: float) -> Study:
           Variant("hi_no_crop", "halo", _dynamic_hi() + (("hi.precrop_steps", 0),),
                   "Hi, started as Lo's copy, on whole images from its first step (no "
                   "centre crop)"),
+          Variant("hi_crop_50", "halo", _dynamic_hi() + (("hi.precrop_steps", 50),),
+                  "Hi, started as Lo's copy, on the centre crop for its first 50 steps "
+                  "(of 200)"),
           Variant("no_crop+fg_start", "halo", _dynamic_hi() + _NO_CROP,
                   "no centre crop for Lo or Hi; half of Lo's first 200 batches from the "
                   "foreground (the sphere kind's start)"),
