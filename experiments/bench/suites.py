@@ -146,16 +146,30 @@ VALIDATION = dataclasses.replace(
 BUDGET_SCENES = ("lego_8view", "dnerf_lego", "fern_4view", "knights")
 
 
-def _budget_suite(budget_s: float, curve_points: int) -> Suite:
+# Seeds on dynamic scenes at 960 s: their margins vary more from seed to seed.
+DYNAMIC_SEEDS_960 = 3
+
+
+def _budget_suite(budget_s: float, curve_points: int, scenes=BUDGET_SCENES,
+                  dynamic_seeds: int = 0) -> Suite:
+  chosen = tuple(s for s in VALIDATION.scenes if s.name in scenes)
+  if dynamic_seeds:
+    chosen = tuple(dataclasses.replace(s, seeds=dynamic_seeds)
+                   if s.config.startswith("configs/dnerf.py") else s for s in chosen)
+  names = "every validation scene" if len(chosen) == len(VALIDATION.scenes) else ", ".join(
+      s.name for s in chosen)
   return dataclasses.replace(
       VALIDATION, budget_s=budget_s, curve_points=curve_points,
       description=(f"The validation suite at {budget_s:g} reference seconds on "
-                   f"{', '.join(BUDGET_SCENES)}: the budget study (docs/budgets.md)."),
-      scenes=tuple(s for s in VALIDATION.scenes if s.name in BUDGET_SCENES))
+                   f"{names}: the budget study (docs/budgets.md)."),
+      scenes=chosen)
 
 
 BUDGET_60 = _budget_suite(60.0, 4)
-BUDGET_960 = _budget_suite(960.0, 8)
+# Every validation scene: whether the lead holds with four times the budget
+# is a claim about every kind, not the four scenes of the 60-s point.
+BUDGET_960 = _budget_suite(960.0, 8, tuple(s.name for s in VALIDATION.scenes),
+                           DYNAMIC_SEEDS_960)
 # suite name -> reference seconds: the budget study's three points
 BUDGET_STUDY = {"budget_60": 60.0, "validation": 240.0, "budget_960": 960.0}
 
