@@ -229,7 +229,7 @@ def case_non_rigid_pose(wd):
 
 LOST_PEER = """
 import sys
-from halo_jax import parallel, pipeline, user_errors
+from halo_jax import configure, parallel, pipeline, user_errors
 from halo_jax.configs import default
 c = default.get_config()
 c.data.root = sys.argv[4]  # generated beforehand: two processes must not write one scene
@@ -242,7 +242,7 @@ c.parallel.update(multihost=True, data_parallel=True, coordinator="127.0.0.1:" +
                   num_processes=2, process_id=int(sys.argv[1]), heartbeat_s=10)
 parallel.initialize(c.parallel)
 with user_errors.reported():
-  pipeline.run(c, sys.argv[3])
+  pipeline.run(configure.finish(c), sys.argv[3])
 """
 
 

@@ -58,8 +58,8 @@ def run_child():
   from experiments.bench import benchmark, suites  # pylint: disable=import-outside-toplevel
   scene = next(s for s in suites.CPU.scenes if s.name == FLAGS.scene)
   with tempfile.TemporaryDirectory(prefix="same_figures_") as tmp:
-    c = benchmark.configure(suites.CPU, scene, FLAGS.method, FLAGS.seed, "budget", tmp)
-    c.eval.lpips = False
+    c = benchmark.configure(suites.CPU, scene, FLAGS.method, FLAGS.seed, "budget", tmp,
+                            (("eval.lpips", False),))
     rec = runs.run_method(c, os.path.join(tmp, "run"))
     front = benchmark.front_points(os.path.join(tmp, "run"), rec, with_lpips=False)
   out = {"cores": len(os.sched_getaffinity(0)), "psnr": rec["psnr"], "ssim": rec["ssim"],

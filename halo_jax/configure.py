@@ -1,21 +1,22 @@
-"""The one way a run's config is made: a scene, then a method, then overrides.
+"""The one way a run's config is made: `compose(scene, method, overrides,
+protocol)`, which every entry point calls (the command line, halo-compare,
+halo-sweep, restore, the nerfbaselines method, the benchmark and the tests):
 
-A config file (configs/<dataset>.py) describes a scene and its protocol; it
-names no method. `as_method` turns that scene config into one method's
-(halo_jax.methods: which stages, models, samplers and loss terms), once, and
-then sets the command line's dotted overrides, so an override always wins
-over what the method sets:
+  c = configure.compose("configs/blender.py:lego_8view_cpu", "freenerf",
+                        {"hi.sampler.num_samples": 64}, protocol=60.0)
 
-  c = configure.load("configs/blender.py:lego_8view_cpu", "freenerf",
-                     {"hi.steps": 100})
-
-The command-line entry points do the same from their --config and --method
-flags (halo_jax/cli/__init__.py: config_of_flags).
+In this order: the scene's config (configs/<dataset>.py builds a scene and
+its protocol and names no method); the protocol, where one is given; the
+method's table for the scene's kind (halo_jax/methods/base.py): its values,
+then the overrides, then its derived fields that no override set; then the
+protocol resolved once (halo_jax/protocol.py: each stage's step count and
+reference clock). The result is frozen: a run's config is one value, never
+edited after this point (frozen.replaced makes a new one).
 """
 import importlib.util
 import os
 
-from halo_jax import config_files, frozen, methods, protocol
+from halo_jax import config_files, frozen, methods, protocol as protocols
 
 
 def load_scene(spec: str):
@@ -32,21 +33,32 @@ def load_scene(spec: str):
   return module.get_config(variant) if variant else module.get_config()
 
 
-def as_method(scene, method: str, overrides=None):
-  """A copy of the scene config `scene` made into `method`, then `overrides`
-  ({dotted field: value}) set, then its protocol's step counts fixed
-  (halo_jax/protocol.py: what a printed or recorded config shows)."""
-  c = methods.apply(scene, method)   # a copy
-  for field, value in (overrides or {}).items():
-    set_field(c, field, value)
-  return protocol.resolve(c)
+def compose(scene, method: str, overrides=None, protocol=None) -> frozen.Frozen:
+  """The run's frozen config (module docstring).
+
+  scene: a config spec ('configs/<file>.py:<variant>') or a scene ConfigDict
+  (not yet a method; it is not changed); overrides: {dotted field: value};
+  protocol: None (the scene's own, or as the overrides set it), 'paper',
+  'steps', or a number of reference seconds (the 'budget' protocol).
+  KeyError naming an unknown field and its nearest names; ConfigError for a
+  protocol that does not fit the config.
+  """
+  base = load_scene(scene) if isinstance(scene, str) else frozen.thaw(scene)
+  if protocol is not None:
+    protocols.apply(base, protocol)
+  c = methods.apply(base, method, overrides)
+  return frozen.freeze(protocols.resolve(c))
 
 
-def load(spec: str, method: str, overrides=None):
-  """load_scene(spec) as `method`, with `overrides` (as_method)."""
-  return as_method(load_scene(spec), method, overrides)
+def finish(config) -> frozen.Frozen:
+  """A config edited by hand after compose (a test's, a tool's variant)
+  made a run's value again: its protocol resolved, frozen."""
+  return frozen.freeze(protocols.resolve(frozen.thaw(config)))
+
+
+def load(spec: str, method: str, overrides=None, protocol=None) -> frozen.Frozen:
+  """compose() of a config spec."""
+  return compose(spec, method, overrides, protocol)
 
 
 set_field = frozen.set_field  # config.<dotted> = value, KeyError naming a missing field
-
-

@@ -19,8 +19,7 @@ def _nerf_model(use_viewdirs):
   m = _model(use_viewdirs=use_viewdirs)
   m.kind = "nerf"                    # models.MODELS: 'nerf', 'deform' (times), 'epi' (light fields)
   m.density_activation = "softplus"  # or 'relu' (the original NeRF)
-  # the dtype of the trunk's matmuls, 'float32' or 'bfloat16' (parameters,
-  # encodings and the output heads stay float32; models.COMPUTE_DTYPES)
+  # the trunk's matmul dtype, 'float32' or 'bfloat16' (models.COMPUTE_DTYPES)
   m.compute_dtype = "float32"
   m.deform_width = 128               # deform only: the deformation MLP
   m.deform_depth = 4
@@ -317,14 +316,14 @@ def base_config() -> ml_collections.ConfigDict:
   c = ml_collections.ConfigDict()
   c.seed = 0
   # The method (halo_jax.methods) that made this config ('' until one has):
-  # methods.apply makes a config into one method, once; the pipeline reads
-  # only the stage sections.
+  # methods.apply makes it into one method, once; the pipeline reads stages.
   c.method = ""
   # The stages to train now (the ones they need are restored). A scene's
   # config is a neutral NeRF (Hi alone, stratified samples, no regulariser);
   # a method (halo_jax.methods) sets its own stages, samplers and terms.
   c.stages = "hi"
   c.final_stage = "hi"        # the stage whose field the method outputs
+  c.sizing = "paper"   # the scene file's sizes: 'paper', or 'cpu' (cpu_sized)
   # 'paper', 'steps' or 'budget' (budget_s reference seconds: halo_jax/protocol.py);
   # step_table: '' for the shipped halo_jax/step_table.json
   c.protocol, c.budget_s, c.step_table = "paper", 0.0, ""
@@ -367,6 +366,7 @@ def cpu_sized(c: ml_collections.ConfigDict, budget_s: float) -> ml_collections.C
   Steps are caps that the time budget normally reaches first; the learning
   rate decays over them.
   """
+  c.sizing = "cpu"
   c.protocol, c.budget_s = "budget", float(budget_s)
   c.budget_shares.update(lo=0.30, ray=0.07, hi=0.63)
   c.eval.chunk = 8192

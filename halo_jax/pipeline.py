@@ -42,17 +42,28 @@ def run(config, workdir: str, dataset=None, pacer=None) -> dict:
   dataset replaces the one config.data describes (a harness that hands the
   views over); pacer (stages/pacing.py) lets a driver grant every step.
 
-  The config is validated before any work (halo_jax.validate), and the
-  workdir is locked for this process (workdir_lock: a second launch into it
+  The config is validated and the data loaded before anything is written
+  (a refused launch leaves the workdir as it was); then the workdir is
+  locked for this process (workdir_lock: a second launch into it
   is refused). info holds the stage's training seconds ('wall_s'), steps,
   skipped steps, the verdict on whether it learned anything ('learned',
   stages/collapse.py) and, for stages that render images, the held-out
   evaluation and its verdict against the best constant image there
   ('heldout_learned'). A stage that collapsed is saved and raises collapse.Collapsed.
   """
+  if not isinstance(config, frozen.Frozen):
+    raise validate.ConfigError(
+        "pipeline.run takes a composed, frozen config (configure.compose; configure.finish "
+        f"for one edited by hand), not a mutable {type(config).__name__}")
   validate.validate(config)
-  # as configure resolved it, or anew; from here on one value no stage can edit
-  config = frozen.freeze(protocol.resolve(frozen.thaw(config)))
+  as_json = lambda c: json.loads(c.to_json_best_effort())  # tuples and lists alike
+  if as_json(protocol.resolve(frozen.thaw(config))) != as_json(config):
+    raise validate.ConfigError("the config's protocol is not resolved (its step counts were "
+                               "edited after compose): make it with configure.compose or "
+                               "configure.finish")
+  # The data before the workdir's lock and config.json: a launch refused for
+  # its input leaves nothing behind that would refuse the corrected one.
+  dataset = dataset or datasets.load(config.data, workdir)
   # In a multi-process job the processes share the workdir; process 0 holds it.
   held = workdir_lock.hold(workdir) if parallel.is_primary() else contextlib.nullcontext()
   with held:
@@ -61,7 +72,6 @@ def run(config, workdir: str, dataset=None, pacer=None) -> dict:
 
 def _run(config, workdir, dataset, pacer):
   check_workdir(config, workdir)
-  dataset = dataset or datasets.load(config.data, workdir)
   run_now = parse_stages(config.stages, config)
   if config.lo.encoding.auto and "lo" in needed(config):
     # The search's own training time is not part of this run's budget.

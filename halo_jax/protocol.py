@@ -76,6 +76,19 @@ def paper(config):
   return config
 
 
+def apply(config, protocol):
+  """Sets `config` (in place) to `protocol`: 'paper', 'steps', or a number
+  of reference seconds ('budget'). ValueError for anything else."""
+  if protocol == "paper":
+    return paper(config)
+  if protocol == "steps":
+    return steps(config)
+  if isinstance(protocol, (int, float)) and not isinstance(protocol, bool) and protocol > 0:
+    return budget(config, protocol)
+  raise ValueError(f"protocol={protocol!r}: must be 'paper', 'steps' or a budget of reference "
+                   "seconds > 0")
+
+
 def _clear(config):
   """Resets the fields resolve owns (a budget owns max_seconds too; under
   the other protocols it is the user's time cap, which a loop also turns

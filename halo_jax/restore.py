@@ -7,7 +7,7 @@ import dataclasses
 import os
 from typing import Any, Callable, Dict, Optional
 
-from halo_jax import checkpoint, datasets
+from halo_jax import checkpoint, datasets, frozen
 from halo_jax.stages import base, order, state
 from halo_jax.types import Config
 
@@ -59,14 +59,14 @@ def load(workdir: str, stage: Optional[str] = None, data_root: str = "") -> Rest
   if name is None or not finished(workdir, name):
     raise NothingToRestore(f"{workdir}: no finished stage {stage or '(any that renders)'} "
                            "to restore (train it first: python -m halo_jax.cli.train ...)")
-  config = checkpoint.read_config(os.path.join(state.stage_dir(workdir, name), "final",
-                                               "config.json"))
+  config = frozen.freeze(checkpoint.read_config(
+      os.path.join(state.stage_dir(workdir, name), "final", "config.json")))
   trainer = base.trainer_of(config, name)
   if trainer.renderer is None:
     raise NothingToRestore(f"{workdir}: stage {name!r} ({config[name].kind}) makes no "
                            "images; choose one that does (e.g. --stage=hi)")
-  if data_root:
-    config.data.root = data_root
+  if data_root:  # a new value: the run's config as stored, its scene elsewhere
+    config = frozen.replaced(config, {"data.root": data_root})
   dataset = datasets.load(config.data, workdir)
   states = stage_states(workdir, config, dataset, order.needed(config, name))
   return Restored(workdir, config, name, dataset, states,

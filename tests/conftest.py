@@ -117,3 +117,10 @@ def assert_beats_constant_heldout(info, stage):
   assert verdict["verdict"] == "learned", (
       f"{stage}: held-out PSNR {verdict['psnr']:.2f} dB, not {verdict['margin_db']} dB above "
       f"the best constant image's {verdict['constant_psnr']:.2f}")
+
+
+def editable(scene, method, overrides=None):
+  """configure.compose's config as a mutable copy, for a test that edits it
+  by hand (then configure.finish makes it a run's value again)."""
+  from halo_jax import configure, frozen
+  return frozen.thaw(configure.compose(scene, method, overrides))

@@ -7,6 +7,8 @@ import sys
 
 import pytest
 
+from halo_jax import frozen  # pylint: disable=g-import-not-at-top
+
 REPO = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..")
 from experiments.bench import ablations, adopt  # pylint: disable=g-import-not-at-top
 
@@ -112,7 +114,8 @@ def test_a_variant_that_is_a_suite_run_adopts_its_record(tmp_path):
   results = str(tmp_path / "results")
   suite = ablations.suites.VALIDATION
   scene = next(s for s in suite.scenes if s.name == "spheres")
-  made = ablations.benchmark.configure(suite, scene, "halo", 0, "budget", str(tmp_path / "other"))
+  made = frozen.thaw(ablations.benchmark.configure(suite, scene, "halo", 0, "budget",
+                                                   str(tmp_path / "other")))
   path = ablations.benchmark.result_path(results, "validation", "budget", scene, "halo", 0)
   git = {"commit": "abc1234", "code_tree": "tree_a", "code_dirty": False}
   record = {"psnr": 21.5, "method": "halo", "provenance": {"git": git},
@@ -143,13 +146,11 @@ def test_a_variant_that_is_a_suite_run_adopts_its_record(tmp_path):
 def test_knights_baseline_at_halos_steps_trains_exactly_halos_count(tmp_path):
   """knights_steps: the baseline stopped where halo's costlier step stops it
   in the same reference time, its schedule as written (the plain baseline's)."""
-  from halo_jax import protocol
   for budget in (60, 240):
     name = f"knights_steps_{budget}"
-    halo = protocol.resolve(_configured(name, "knights", "halo", 0, tmp_path)[2])
-    base = protocol.resolve(_configured(name, "knights", "nerf_tuned", 0, tmp_path)[2])
-    same = protocol.resolve(_configured(name, "knights", "nerf_tuned_halo_steps", 0,
-                                        tmp_path)[2])
+    halo = _configured(name, "knights", "halo", 0, tmp_path)[2]
+    base = _configured(name, "knights", "nerf_tuned", 0, tmp_path)[2]
+    same = _configured(name, "knights", "nerf_tuned_halo_steps", 0, tmp_path)[2]
     assert base.hi.budget_steps > halo.hi.budget_steps  # the baseline's step is cheaper
     assert same.hi.budget_steps == halo.hi.budget_steps == same.hi.stop_at_step
     assert same.hi.steps == base.hi.steps and same.hi.lr_init == base.hi.lr_init
@@ -159,13 +160,12 @@ def test_dynamic_crop_variants_change_only_his_crop(tmp_path):
   """dynamic_hi: `hi_crop_50` and `hi_no_crop` differ from halo's D-NeRF run
   in Hi's centre-crop steps alone, at every budget, so they take halo's step
   counts."""
-  from halo_jax import protocol
   for budget in (60, 240, 960):
     name = f"dynamic_hi_{budget}"
-    halo = protocol.resolve(_configured(name, "dnerf_lego", "halo", 0, tmp_path)[2])
+    halo = _configured(name, "dnerf_lego", "halo", 0, tmp_path)[2]
     assert halo.hi.precrop_steps == 200
     for variant, crop in (("hi_crop_50", 50), ("hi_no_crop", 0)):
-      c = protocol.resolve(_configured(name, "dnerf_lego", variant, 0, tmp_path)[2])
+      c = frozen.thaw(_configured(name, "dnerf_lego", variant, 0, tmp_path)[2])
       assert c.hi.precrop_steps == crop
       c.hi.precrop_steps = halo.hi.precrop_steps
       assert c.to_dict() == halo.to_dict(), variant

@@ -162,9 +162,13 @@ def _accepts(fn, protocol) -> bool:
   return True
 
 
+class _RuleFn:  # base.Derived's rule(config, scene)
+  def __call__(self, config, scene): ...
+
+
 def test_registry_entries_keep_their_typed_interfaces():
   import halo_jax.pipeline  # noqa: F401  (registers the stage trainers)
-  from halo_jax.methods.base import ApplyFn
+  from halo_jax.methods import base as method_base
   bad = []
   fields = {"requires": base.RequiresFn, "params_like": base.ParamsLikeFn,
             "train": base.TrainFn, "check": base.CheckFn, "renderer": base.RendererFn,
@@ -177,7 +181,12 @@ def test_registry_entries_keep_their_typed_interfaces():
   for name, t in terms.TERMS.items():
     bad += [f"term {name}.{f}" for f, p in fields.items()
             if getattr(t, f) is not None and not _accepts(getattr(t, f), p)]
-  bad += [f"method {n}.apply" for n, m in METHODS.items() if not _accepts(m.apply, ApplyFn)]
+  # a method is data: per scene kind a table of values, edits and derived rules
+  for n, m in METHODS.items():
+    for kind, table in m.tables.items():
+      bad += [f"method {n}.tables[{kind!r}]"] if kind not in method_base.KINDS else []
+      bad += [f"method {n} {kind} {f}: rule" for f, v in table.items()
+              if isinstance(v, method_base.Derived) and not _accepts(v.rule, _RuleFn)]
   assert not bad, "entries whose callables do not take their interface's arguments: " + str(bad)
   # the check itself can fail
   assert not _accepts(lambda a, b, c: None, terms.ActiveFn)

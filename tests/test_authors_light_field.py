@@ -9,9 +9,12 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
+from conftest import editable  # pylint: disable=g-import-not-at-top
+
 from conftest import SHARED_DATA
 from halo_jax import configure, encoding, lightfield, ray_fields, samplers
 from halo_jax.datasets import llff
+from halo_jax.configure import finish  # pylint: disable=g-import-not-at-top
 
 
 def _their_normal_embedder(inputs, freqs):
@@ -281,7 +284,7 @@ def test_authors_lo_nerf_is_their_lfnerf_config():
   one = configure.load("configs/blender.py:lego_oneside", "halo_authors").lo
   assert (one.encoding.scale, one.steps, one.precrop_steps) == (1.0, 4200, 500)
   # under a budget the crop is the same share of the steps Lo trains
-  c = protocol.resolve(configure.load("configs/blender.py:lego_8view_cpu", "halo_authors",
+  c = (configure.load("configs/blender.py:lego_8view_cpu", "halo_authors",
                                       {"protocol": "steps", "budget_s": 0.0,
                                        "lo.stop_at_step": 480}))
   assert (c.lo.steps, c.lo.precrop_steps) == (480, round(round(500 / 8000 * 1500) * 480 / 1500))
@@ -295,7 +298,7 @@ def test_authors_schedules_span_the_steps_hi_trains():
   from halo_jax.stages import step
   over = {"protocol": "steps", "budget_s": 0.0, "hi.stop_at_step": 736}
   for scene, start in (("lego", 0), ("drums", 2000)):
-    c = protocol.resolve(configure.load(f"configs/blender.py:{scene}_8view_cpu",
+    c = (configure.load(f"configs/blender.py:{scene}_8view_cpu",
                                         "halo_authors", over))
     hi = c.hi
     assert hi.steps == 736
@@ -303,10 +306,10 @@ def test_authors_schedules_span_the_steps_hi_trains():
     assert hi.empty.start_step == (round(round(start * 6000 / 80000) * 736 / 6000) if start
                                    else 0)
     assert float(step.schedule(hi)(736)) == pytest.approx(5e-6)
-    again = protocol.resolve(c)   # idempotent: the ratio is 1 the second time
+    again = configure.finish(c)   # idempotent: the ratio is 1 the second time
     assert (again.hi.steps, again.hi.precrop_steps) == (736, 9)
   # `halo` keeps its schedules on the cap
-  ours = protocol.resolve(configure.load("configs/blender.py:lego_8view_cpu", "halo", over)).hi
+  ours = (configure.load("configs/blender.py:lego_8view_cpu", "halo", over)).hi
   assert (ours.steps, ours.schedule_span) == (6000, "steps")
 
 
@@ -314,7 +317,7 @@ def test_authors_schedules_span_the_budgets_count(tmp_path):
   # under the budget protocol the count comes from the step table
   import json
   from halo_jax import protocol, step_table
-  c = configure.load("configs/llff.py:fern_4view_cpu", "halo_authors")
+  c = editable("configs/llff.py:fern_4view_cpu", "halo_authors")
   table = tmp_path / "table.json"
   table.write_text(json.dumps({"entries": {step_table.key(c, "hi"): {"step_s": 0.5,
                                                                      "setup_s": 0.0}}}))
@@ -388,7 +391,7 @@ def test_select_best_keeps_the_parameters_that_scored_best(tmp_path):
       "hi.steps": 12, "hi.eval_every": 5, "hi.select_best": True, "hi.model.width": 32,
       "hi.batch_rays": 128, "hi.sampler.num_samples": 8, "baseline.num_samples": 8,
       "protocol": "steps", "budget_s": 0.0, "eval.curve_views": 1})
-  pipeline.run(c, str(tmp_path))
+  pipeline.run(finish(c), str(tmp_path))
   import json
   with open(tmp_path / "metrics.jsonl") as f:
     scored = [json.loads(l) for l in f if "select_psnr" in l]

@@ -10,6 +10,7 @@ import pytest
 from halo_jax import datasets, pipeline
 from halo_jax.registry import ConfigError
 from conftest import tiny_config
+from halo_jax.configure import finish  # pylint: disable=g-import-not-at-top
 
 
 def _scene(scene_root, tmp_path):
@@ -109,7 +110,7 @@ def test_bad_input_is_refused_before_training(case, scene_root, tmp_path):
   c.data.root = root
   wd = str(tmp_path / "run")
   with pytest.raises(datasets.DataError, match=message):
-    pipeline.run(c, wd)
+    pipeline.run(finish(c), wd)
   assert not os.path.exists(os.path.join(wd, "lo")), "training started before the error"
 
 

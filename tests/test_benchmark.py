@@ -6,7 +6,7 @@ import shutil
 
 import pytest
 
-from halo_jax import configure, datasets  # pylint: disable=g-import-not-at-top
+from halo_jax import configure, datasets, frozen  # pylint: disable=g-import-not-at-top
 from halo_jax.stages import collapse  # pylint: disable=g-import-not-at-top
 from experiments.bench import benchmark, suites  # pylint: disable=g-import-not-at-top
 
@@ -60,7 +60,7 @@ def test_ingredient_variants_change_one_thing_to_the_other_baseline(tmp_path):
   other = {"nerf_paper": "nerf_tuned", "nerf_tuned": "nerf_paper"}
   for scene in suite.scenes:
     (method,) = scene.methods
-    c = benchmark.configure(suite, scene, method, 0, "steps", str(tmp_path))
+    c = frozen.thaw(benchmark.configure(suite, scene, method, 0, "steps", str(tmp_path)))
     for field, value in scene.overrides:
       assert _value(c, field) == value == _value(configs[other[method]], field), scene.name
       assert _value(configs[method], field) != value, scene.name
@@ -146,12 +146,14 @@ def test_the_budget_studys_suites_are_the_validation_suite_at_other_budgets(tmp_
     kinds.add(scene.config.split(":")[0])
     for method in scene.methods:
       a = benchmark.configure(suites.BUDGET_960, scene, method, 0, "budget", str(tmp_path))
-      b = benchmark.configure(suites.VALIDATION, same, method, 0, "budget", str(tmp_path))
+      b = frozen.thaw(benchmark.configure(suites.VALIDATION, same, method, 0, "budget",
+                                          str(tmp_path)))
       set_field(b, "budget_s", 960.0)
       for n in ("lo", "ray", "hi"):   # the curve's spacing follows the budget
         if n in a.stages:
           set_field(b, f"{n}.eval_every_s", a[n].eval_every_s)
-      assert a.to_json_best_effort() == benchmark.protocol.resolve(b).to_json_best_effort()
+      assert json.loads(a.to_json_best_effort()) == json.loads(
+          benchmark.protocol.resolve(b).to_json_best_effort())
   assert kinds == {"configs/blender.py", "configs/dnerf.py", "configs/llff.py",
                    "configs/stanford_lf.py"}
   # 960 s covers every validation scene, with more seeds on the dynamic ones

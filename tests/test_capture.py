@@ -13,6 +13,8 @@ pycolmap = pytest.importorskip("pycolmap")
 from conftest import assert_beats_constant_heldout, assert_trained  # noqa: E402
 from halo_jax import configure, datasets  # noqa: E402
 from halo_jax.datasets import capture, procedural  # noqa: E402
+from conftest import editable  # pylint: disable=g-import-not-at-top
+from halo_jax.configure import finish  # pylint: disable=g-import-not-at-top
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
@@ -71,7 +73,7 @@ def test_sfm_recovers_the_true_cameras_up_to_a_similarity(photo_folder):
 def test_the_loader_normalises_and_splits_by_farthest_cameras(photo_folder):
   root, _, _ = photo_folder
   from configs import capture as capture_cfg
-  c = configure.as_method(capture_cfg.get_config("6view_cpu"), "halo")
+  c = editable(capture_cfg.get_config("6view_cpu"), "halo")
   c.data.root = root
   ds = datasets.load(c.data)
   assert len(ds.train.names) == 6 and not set(ds.train.names) & set(ds.test.names)
@@ -172,7 +174,7 @@ def test_a_short_halo_run_trains_on_recovered_cameras(photo_folder, tmp_path):
   from configs import capture as capture_cfg
   from halo_jax import pipeline
   root, _, _ = photo_folder
-  c = configure.as_method(capture_cfg.get_config("6view"), "halo")
+  c = editable(capture_cfg.get_config("6view"), "halo")
   c.data.update(root=root, factor=2, test_views="every:8")
   c.eval.update(chunk=1024, lpips=False, save_images=False)
   for name in ("lo", "hi"):
@@ -183,7 +185,7 @@ def test_a_short_halo_run_trains_on_recovered_cameras(photo_folder, tmp_path):
   c.ray.model.update(width=32, depth=2, skips=())
   c.ray.update(batch_rays=256, steps=40, bank_rays=1024)
   c.hi.empty.update(num_rays=64, num_samples=8, bank_rays=1024)
-  infos = pipeline.run(c, str(tmp_path / "run"))
+  infos = pipeline.run(finish(c), str(tmp_path / "run"))
   for name in ("lo", "hi"):
     assert_trained(str(tmp_path / "run"), name, c)
   assert_beats_constant_heldout(infos["hi"], "hi")

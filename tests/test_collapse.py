@@ -11,6 +11,7 @@ import pytest
 from conftest import tiny_config
 from halo_jax import pipeline, runs
 from halo_jax.stages import collapse
+from halo_jax.configure import finish  # pylint: disable=g-import-not-at-top
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 JUDGE = dict(margin_db=1.0, after_steps=10, window=0.2)
@@ -154,7 +155,7 @@ def _dead_lo(root):
 def test_a_collapsed_stage_is_not_handed_on(scene_root, tmp_path):
   wd = str(tmp_path / "run")
   with pytest.raises(collapse.Collapsed, match="stage 'lo' collapsed") as e:
-    pipeline.run(_dead_lo(scene_root), wd)
+    pipeline.run(finish(_dead_lo(scene_root)), wd)
   assert e.value.stage == "lo" and e.value.verdict["verdict"] == "collapsed"
   assert e.value.verdict["train_psnr"] < e.value.verdict["constant_psnr"] + 1.0
   with open(os.path.join(wd, "lo", "final", "info.json")) as f:
@@ -164,11 +165,11 @@ def test_a_collapsed_stage_is_not_handed_on(scene_root, tmp_path):
   c = _dead_lo(scene_root)
   c.stages = "ray,hi"
   with pytest.raises(collapse.Collapsed):
-    pipeline.run(c, wd)
+    pipeline.run(finish(c), wd)
 
 
 def test_the_record_says_collapsed(scene_root, tmp_path):
-  r = runs.run_method(_dead_lo(scene_root), str(tmp_path / "run"))
+  r = runs.run_method(finish(_dead_lo(scene_root)), str(tmp_path / "run"))
   assert r["collapsed"]["stage"] == "lo" and r["learned"] == {"lo": "collapsed"}
   assert r["stages"].keys() == {"lo"} and np.isfinite(r["psnr"])
   assert runs.learned_cell(r) == "collapsed (lo)"
@@ -183,7 +184,7 @@ def test_a_stage_that_learns_passes(scene_root, tmp_path):
   c.lo.collapse.after_steps = 100
   c.ray.update(steps=200, log_every=10, lr_init=5e-3, batch_rays=256)
   c.ray.collapse.after_steps = 50
-  infos = pipeline.run(c, str(tmp_path / "run"))
+  infos = pipeline.run(finish(c), str(tmp_path / "run"))
   v = infos["lo"]["learned"]
   assert v["verdict"] == "learned", v
   assert v["train_psnr"] > v["constant_psnr"] + 1.0

@@ -8,6 +8,7 @@ import pytest
 from halo_jax import configure, datasets
 from halo_jax.datasets import blender, procedural
 from conftest import SHARED_DATA, tiny_config
+from conftest import editable  # pylint: disable=g-import-not-at-top
 
 LEGO = os.path.join(SHARED_DATA, "nerf_synthetic", "lego")
 
@@ -112,7 +113,7 @@ def test_missing_image_names_the_file(scene_root, tmp_path):
 @pytest.mark.skipif(not os.path.isdir(LEGO), reason="lego not in the datasets folder")
 def test_lego_eight_views_factor_8():
   from configs import blender as blender_configs
-  c = configure.as_method(blender_configs.get_config("lego_8view_cpu"), "halo")
+  c = editable(blender_configs.get_config("lego_8view_cpu"), "halo")
   c.data.root = LEGO
   ds = datasets.load(c.data)
   assert ds.train.names == ("r_2", "r_16", "r_93", "r_55", "r_73", "r_86", "r_26", "r_75")

@@ -12,6 +12,8 @@ from conftest import assert_trained, SHARED_DATA, tiny_config
 from halo_jax import configure, datasets, methods, metrics, models, pipeline, raycast, stages
 from halo_jax.datasets import blender
 from halo_jax.stages import transfer
+from conftest import editable  # pylint: disable=g-import-not-at-top
+from halo_jax.configure import finish  # pylint: disable=g-import-not-at-top
 
 TINY_DNERF = os.path.join(SHARED_DATA, "dnerf", "tiny_dnerf_data.npz")
 
@@ -58,7 +60,7 @@ def test_npz_splits_and_every_eighth_image(scene_root, tmp_path):
 @pytest.mark.skipif(not os.path.exists(TINY_DNERF), reason="shared D-NeRF data absent")
 def test_tiny_dnerf_lego_split():
   from configs import dnerf
-  c = configure.as_method(dnerf.get_config("tiny_cpu"), "halo")
+  c = editable(dnerf.get_config("tiny_cpu"), "halo")
   c.data.root = TINY_DNERF
   ds = datasets.load(c.data)
   # 50 training frames, every 8th: frames 0, 8, ..., 48.
@@ -72,7 +74,7 @@ def test_dnerf_scene_folders_cpu_protocol(scene, num_train):
   """Any D-NeRF scene by name: every 8th training frame, the 20 test frames,
   100x100 on white (the paper's 400x400 protocol at factor 8)."""
   from configs import dnerf
-  c = configure.as_method(dnerf.get_config(f"{scene}_cpu"), "halo")
+  c = editable(dnerf.get_config(f"{scene}_cpu"), "halo")
   c.data.root = os.path.join(SHARED_DATA, "dnerf", scene)
   if not os.path.isdir(c.data.root):
     pytest.skip("shared D-NeRF scene folders absent")
@@ -203,7 +205,7 @@ def test_halo_for_time_smoke(scene_root, tmp_path):
                    log_every=2, precrop_steps=0)
   assert pipeline.needed(c) == ("lo", "hi")  # no ray field
   wd = str(tmp_path / "run")
-  infos = pipeline.run(c, wd)
+  infos = pipeline.run(finish(c), wd)
   ev = infos["hi"]["eval"]
   for name in ("lo", "hi"):
     assert_trained(wd, name, c)
@@ -225,7 +227,7 @@ def test_every_method_trains_on_a_dynamic_scene(method, scene_root, tmp_path):
                    log_every=1, precrop_steps=0, lr_init=5e-3, lr_final=5e-3)
   c.hi.sampler.update(num_coarse=8, num_samples=8)
   wd = str(tmp_path / "run")
-  infos = pipeline.run(c, wd)
+  infos = pipeline.run(finish(c), wd)
   assert np.isfinite(infos["hi"]["eval"]["psnr"])
   for name in infos:
     assert_trained(wd, name, c)
@@ -262,5 +264,5 @@ def test_static_model_on_dynamic_data_is_refused(scene_root, tmp_path):
   wd = str(tmp_path / "run")
   with pytest.raises(ValueError, match="lo.model.kind='nerf' is static .* use 'deform' for scenes "
                      "with times"):
-    pipeline.run(c, wd)
+    pipeline.run(finish(c), wd)
   assert not os.path.exists(wd), "refused only after work started"

@@ -12,13 +12,14 @@ import pytest
 from halo_jax import pipeline
 from halo_jax.cli import evaluate as evaluate_cli
 from conftest import pipeline_config
+from halo_jax.configure import finish  # pylint: disable=g-import-not-at-top
 
 
 @pytest.fixture(scope="module")
 def finished_run(scene_root, tmp_path_factory):
   wd = str(tmp_path_factory.mktemp("run"))
   c = pipeline_config(scene_root, steps=4)
-  infos = pipeline.run(c, wd)
+  infos = pipeline.run(finish(c), wd)
   return wd, infos
 
 

@@ -17,6 +17,7 @@ import pytest
 from halo_jax import defaults, pipeline, user_errors, workdir_lock
 from halo_jax.stages import loop
 from halo_jax.stages import step as train_step
+from halo_jax.configure import finish  # pylint: disable=g-import-not-at-top
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
@@ -125,7 +126,7 @@ def test_a_second_launch_is_refused_and_kill_9_leaves_nothing_stale(config, tmp_
   try:
     assert holder.stdout.readline().strip() == "held"
     with pytest.raises(workdir_lock.WorkdirLocked, match=f"in use by pid {holder.pid} on host "):
-      pipeline.run(config, wd)
+      pipeline.run(finish(config), wd)
     res = subprocess.run([sys.executable, "-m", "halo_jax.cli.compare", "--config=configs/default.py",
                           f"--workdir={wd}"], cwd=REPO, capture_output=True, text=True,
                          timeout=300)

@@ -11,6 +11,7 @@ import pytest
 
 from halo_jax import pipeline
 from halo_jax.frequency import spectrum as frequency, tuning
+from halo_jax.configure import finish  # pylint: disable=g-import-not-at-top
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 H, W = 32, 40
@@ -92,7 +93,7 @@ def test_auto_encoding_searches_then_trains_lo_with_the_choice(config, scene_roo
   config.stages = "lo"
   config.lo.encoding.auto = True
   wd = str(tmp_path / "run")
-  pipeline.run(config, wd)
+  pipeline.run(finish(config), wd)
   saved = json.load(open(os.path.join(wd, "lo", "final", "config.json")))
   assert (saved["lo"]["encoding"]["L"], saved["lo"]["encoding"]["scale"]) == (3, 8.0)
   assert os.path.exists(os.path.join(wd, "tune", "results.json"))

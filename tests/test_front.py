@@ -12,6 +12,7 @@ from experiments.bench import front_scores as front
 from halo_jax.registry import ConfigError
 from halo_jax.stages import snapshots
 from halo_jax import validate
+from halo_jax.configure import finish  # pylint: disable=g-import-not-at-top
 
 
 def test_snapshots_are_owed_once_and_again_after_a_resume(tmp_path):
@@ -60,14 +61,14 @@ def test_each_point_scores_what_a_run_stopped_there_scores(scene_root, tmp_path)
   wd = str(tmp_path / "run")
   eps = 1e-9
   c.eval.front_s, c.stages = (eps,), "lo"
-  pipeline.run(c, wd)
+  pipeline.run(finish(c), wd)
   after_lo = _info(wd, "lo")["cumulative_wall_s"]
   c.eval.front_s, c.stages = (eps, after_lo + eps), "ray"
-  pipeline.run(c, wd)
+  pipeline.run(finish(c), wd)
   after_ray = _info(wd, "ray")["cumulative_wall_s"]
   shutil.copytree(wd, str(tmp_path / "stopped"))  # Lo and the ray field, finished
   c.eval.front_s, c.stages = (eps, after_lo + eps, after_ray + eps), "hi"
-  pipeline.run(c, wd)
+  pipeline.run(finish(c), wd)
 
   points = front.evaluate_front(wd, with_lpips=False)
   assert [(p["stage"], p["step"]) for p in points] == [("lo", 1), ("lo", None), ("hi", 1)]
@@ -77,7 +78,7 @@ def test_each_point_scores_what_a_run_stopped_there_scores(scene_root, tmp_path)
 
   hi_stop = pipeline_config(scene_root, steps=4)
   hi_stop.eval.lpips, hi_stop.stages, hi_stop.hi.stop_at_step = False, "hi", 1
-  pipeline.run(hi_stop, str(tmp_path / "stopped"))
+  pipeline.run(finish(hi_stop), str(tmp_path / "stopped"))
   assert points[2]["psnr"] == pytest.approx(
       _info(str(tmp_path / "stopped"), "hi")["eval"]["psnr"], abs=1e-4)
   assert points[0]["psnr"] != pytest.approx(points[1]["psnr"], abs=1e-3)  # Lo trained on

@@ -9,6 +9,7 @@ import pytest
 from halo_jax import frozen, pipeline, protocol
 from halo_jax.stages import base
 from conftest import pipeline_config
+from halo_jax.configure import finish  # pylint: disable=g-import-not-at-top
 
 
 def test_the_stages_receive_an_immutable_config(tmp_path, monkeypatch):
@@ -33,7 +34,7 @@ def test_the_stages_receive_an_immutable_config(tmp_path, monkeypatch):
     return Spy()
   monkeypatch.setattr(base, "trainer_of", spying)
   workdir = str(tmp_path / "run")
-  pipeline.run(c, workdir)
+  pipeline.run(finish(c), workdir)
   assert [n for n, _ in seen] == ["lo", "ray", "hi"]
   assert all(isinstance(x, ml_collections.FrozenConfigDict) for _, x in seen)
   with open(os.path.join(workdir, "config.json")) as f:

@@ -14,6 +14,8 @@ from conftest import SHARED_DATA
 from halo_jax import configure, datasets, lightfield, pipeline, registry, render
 from halo_jax.datasets import stanford_lf
 from halo_jax.stages import base, batches, epi, radiance, terms
+from conftest import editable  # pylint: disable=g-import-not-at-top
+from halo_jax.configure import finish  # pylint: disable=g-import-not-at-top
 
 KNIGHTS = os.path.join(SHARED_DATA, "stanford_lf", "knights")
 
@@ -93,7 +95,7 @@ def write_light_field(root, grid=5, size=16, disparity_px=0.5):
 
 def lf_config(root):
   from configs import stanford_lf as cfg_lf
-  c = configure.as_method(cfg_lf.get_config("scene_cpu"), "halo")
+  c = editable(cfg_lf.get_config("scene_cpu"), "halo")
   c.data.update(root=root, train_views="00_00,00_04,04_00,04_04", test_views="02_02,01_03",
                 disparity_px=(-1.0, 1.0), grid_signs=(1.0, 1.0))
   c.protocol, c.budget_s = "steps", 0.0
@@ -140,16 +142,16 @@ def test_other_size_view_named(tmp_path):
                          [(False, 0.0, False), (False, 0.5, True), (True, 0.0, False)])
 @pytest.mark.slow
 def test_joint_and_baseline_smoke(tmp_path, baseline, full_range, random_background):
-  from halo_jax.methods import nerf_tuned
+  from halo_jax.methods import base, nerf_tuned
   root = write_light_field(str(tmp_path / "lf"))
   c = lf_config(root)
   c.hi.joint.full_range = full_range
   c.hi.random_background = random_background
-  if baseline:
-    nerf_tuned.apply(c)
+  if baseline:  # nerf_tuned's table on the light-field stage
+    base.write_derived(c, c, base.write_values(c, nerf_tuned.METHOD.table("two_plane")))
   assert pipeline.needed(c) == ("hi",)
   wd = str(tmp_path / "run")
-  infos = pipeline.run(c, wd)
+  infos = pipeline.run(finish(c), wd)
   # six steps learn nothing here (200 do not either: the collapse check
   # stops them); what the smoke run claims is that its figure is its render's:
   # each view's PSNR is that of the written [truth | render | depth] panel
@@ -327,7 +329,7 @@ def test_random_background_costs_only_transparency():
 @pytest.mark.skipif(not os.path.exists(KNIGHTS), reason="shared Stanford data absent")
 def test_knights_views_and_bounds():
   from configs import stanford_lf as cfg_lf
-  c = configure.as_method(cfg_lf.get_config("knights_cpu"), "halo")
+  c = editable(cfg_lf.get_config("knights_cpu"), "halo")
   c.data.root = KNIGHTS
   ds = datasets.load(c.data)
   assert ds.train.names == ("04_04", "04_12", "12_04", "12_12")
@@ -361,7 +363,7 @@ def test_knights_disparity_sign_and_range():
   # pixels, and the knights, which stand in front of the wall, must get a
   # larger delta (rendering composites from the largest delta, the nearest).
   from configs import stanford_lf as cfg_lf
-  c = configure.as_method(cfg_lf.get_config("knights_cpu"), "halo")
+  c = editable(cfg_lf.get_config("knights_cpu"), "halo")
   c.data.update(root=KNIGHTS, test_views="08_06,08_10")
   ds = datasets.load(c.data)
   a, b = ds.test.images[0].mean(-1), ds.test.images[1].mean(-1)
@@ -391,7 +393,7 @@ def test_knights_disparity_sign_and_range():
 @pytest.mark.slow
 def test_full_range_keeps_the_sample_count_and_rejects_an_empty_window():
   from configs import stanford_lf as cfg_lf
-  c = configure.as_method(cfg_lf.get_config("scene_cpu"), "halo")
+  c = editable(cfg_lf.get_config("scene_cpu"), "halo")
   c.hi.sampler.num_samples = 8
   c.hi.joint.full_range = 0.5
   model, ray_model = epi.models_from_config(c, "hi")

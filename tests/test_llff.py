@@ -8,6 +8,8 @@ import pytest
 
 from conftest import SHARED_DATA, assert_trained, tiny_config
 from halo_jax import camera, configure, datasets, methods, pipeline, stages
+from conftest import editable  # pylint: disable=g-import-not-at-top
+from halo_jax.configure import finish  # pylint: disable=g-import-not-at-top
 
 FERN = os.path.join(SHARED_DATA, "nerf_llff_data", "fern")
 
@@ -91,7 +93,7 @@ def test_forward_facing_stages_smoke(tmp_path):
   for name in ("lo", "hi"):
     c[name].update(steps=60, log_every=1, lr_init=5e-3, lr_final=5e-3)
   wd = str(tmp_path / "run")
-  infos = pipeline.run(c, wd)
+  infos = pipeline.run(finish(c), wd)
   assert np.isfinite(infos["hi"]["eval"]["psnr"])
   assert infos["ray"]["step"] == c.ray.steps
   for name in ("lo", "hi"):
@@ -101,7 +103,7 @@ def test_forward_facing_stages_smoke(tmp_path):
 @pytest.mark.skipif(not os.path.exists(FERN), reason="shared LLFF data absent")
 def test_fern_split_and_ndc_bounds():
   from configs import llff
-  c = configure.as_method(llff.get_config("fern_4view_cpu"), "halo")
+  c = editable(llff.get_config("fern_4view_cpu"), "halo")
   c.data.root = FERN
   ds = datasets.load(c.data)
   assert ds.train.images.shape == (4, 378, 504, 3) and ds.test.names == ("014",)
@@ -120,7 +122,7 @@ def test_joint_scheme_smoke(tmp_path):
   c.hi.joint.update(alpha_steps=4, alpha_final=0.3)
   assert pipeline.needed(c) == ("lo", "hi")  # the ray field trains inside hi
   wd = str(tmp_path / "run")
-  infos = pipeline.run(c, wd)
+  infos = pipeline.run(finish(c), wd)
   assert np.isfinite(infos["hi"]["eval"]["psnr"])
   log = [json.loads(l) for l in open(os.path.join(wd, "metrics.jsonl"))]
   hi = [r for r in log if r.get("stage") == "hi" and "loss" in r]
@@ -130,7 +132,7 @@ def test_joint_scheme_smoke(tmp_path):
   # a relaunch of hi alone loads the joint state's structure
   c.stages = "hi"
   c.hi.steps = 6
-  assert pipeline.run(c, wd)["hi"]["step"] == 6
+  assert pipeline.run(finish(c), wd)["hi"]["step"] == 6
 
 
 def test_regnerf_split_of_twenty_images():
@@ -150,7 +152,7 @@ def test_regnerf_split_of_twenty_images():
 def test_fern_regnerf_3view_config_loads_its_split(monkeypatch):
   from configs import llff as llff_cfg
   monkeypatch.setenv("HALO_DATA", SHARED_DATA)
-  c = configure.as_method(llff_cfg.get_config("fern_3view_cpu"), "halo")
+  c = editable(llff_cfg.get_config("fern_3view_cpu"), "halo")
   ds = datasets.load(c.data)
   assert ds.train.names == ("001", "010", "019") and ds.test.names == ("000", "008", "016")
 
@@ -192,5 +194,5 @@ def test_forward_facing_ray_field_trains_on_random_rays(tmp_path):
   c = llff_config(root)
   c.ray.update(random_fraction=0.5, bank_rays=512)
   c.stages = "lo,ray"
-  infos = pipeline.run(c, str(tmp_path / "run"))
+  infos = pipeline.run(finish(c), str(tmp_path / "run"))
   assert infos["ray"]["step"] == c.ray.steps

@@ -7,6 +7,8 @@ import os
 import jax
 import jax.numpy as jnp
 import numpy as np
+from unittest import mock
+
 import pytest
 
 from conftest import assert_trained, tiny_config
@@ -14,6 +16,8 @@ from halo_jax import config_files, configure, losses, methods, models, pipeline,
 from halo_jax.registry import ConfigError
 from halo_jax.stages import batches
 from halo_jax.stages import step as train_step
+from conftest import editable  # pylint: disable=g-import-not-at-top
+from halo_jax.configure import finish  # pylint: disable=g-import-not-at-top
 
 
 def freenerf_mask_reference(L, t, T):
@@ -141,7 +145,7 @@ def test_methods_configure_the_stages_they_describe():
   with pytest.raises(ConfigError, match="method='dietnerf' is not a known method"):
     methods.apply(neutral, "dietnerf")
   # a method is applied once: HALO's settings must not reach a baseline
-  with pytest.raises(ValueError, match="already method 'halo'.*configure.as_method"):
+  with pytest.raises(ValueError, match="already method 'halo'.*configure.compose"):
     methods.apply(c, "nerf_tuned")
   # an override wins over what the method sets
   assert configure.load("configs/blender.py:lego_8view_cpu", "nerf_paper",
@@ -150,17 +154,17 @@ def test_methods_configure_the_stages_they_describe():
 
 def _llff():
   from configs import llff
-  return configure.as_method(llff.get_config("fern_4view_cpu"), "halo")
+  return editable(llff.get_config("fern_4view_cpu"), "halo")
 
 
 def _dnerf():
   from configs import dnerf
-  return configure.as_method(dnerf.get_config("lego_cpu"), "halo")
+  return editable(dnerf.get_config("lego_cpu"), "halo")
 
 
 def _knights():
   from configs import stanford_lf
-  return configure.as_method(stanford_lf.get_config("knights_cpu"), "halo")
+  return editable(stanford_lf.get_config("knights_cpu"), "halo")
 
 
 def _set(make, **fields):
@@ -220,8 +224,8 @@ def test_every_shipped_config_validates():
 
 def test_auto_frequency_is_accepted_for_every_kind_with_a_lo_nerf():
   from configs import dnerf, llff
-  for c in (configure.as_method(llff.get_config("fern_4view_cpu"), "halo"),
-            configure.as_method(dnerf.get_config("hook_cpu"), "halo"), tiny_config()):
+  for c in (editable(llff.get_config("fern_4view_cpu"), "halo"),
+            editable(dnerf.get_config("hook_cpu"), "halo"), tiny_config()):
     c.lo.encoding.auto = True
     validate.validate(c)
 
@@ -232,7 +236,7 @@ def test_auto_frequency_on_a_light_field_is_refused_before_any_work(tmp_path):
   c.lo.encoding.auto = True
   c.data.root = str(tmp_path / "no_such_scene")  # nothing is read before the refusal
   with pytest.raises(ConfigError, match=r"lo.encoding.auto=True"):
-    pipeline.run(c, str(tmp_path / "run"))
+    pipeline.run(finish(c), str(tmp_path / "run"))
   assert not os.path.exists(tmp_path / "run" / "tune")
 
 
@@ -242,7 +246,7 @@ def test_llff_with_empty_loss_is_refused_before_any_work(tmp_path):
   c.hi.empty.weight = 0.1
   wd = str(tmp_path / "run")
   with pytest.raises(ConfigError, match=r"hi.empty .* data.kind='llff'"):
-    pipeline.run(c, wd)
+    pipeline.run(finish(c), wd)
   assert not os.path.exists(wd)
 
 
@@ -256,7 +260,7 @@ def test_method_trains_through_the_pipeline(name, scene_root, tmp_path):
     c.hi.update(batch_rays=64, microbatches=1, steps=6, precrop_steps=2)
   c.hi.update(steps=60, log_every=1, checkpoint_every=30, lr_init=5e-3, lr_final=5e-3)
   wd = str(tmp_path / "run")
-  infos = pipeline.run(c, wd)
+  infos = pipeline.run(finish(c), wd)
   assert infos["hi"]["step"] == 60 and infos["hi"]["skipped"] == 0
   assert np.isfinite(infos["hi"]["eval"]["psnr"])
   assert_trained(wd, "hi", c)
@@ -398,27 +402,43 @@ def test_the_extending_example_is_one_file_and_one_line(monkeypatch):
     configure.load("configs/llff.py:fern_4view_cpu", "nerf+empty")
 
 
-def test_a_method_table_sets_fields_in_order_and_names_a_missing_one():
+def test_a_method_table_writes_values_then_overrides_then_derived_fields():
   from halo_jax.methods import base
-  c = configure.load_scene("configs/blender.py:lego_8view_cpu")
   table = {"hi.sampler.num_samples": 12,
-           "baseline.num_samples": lambda cfg: cfg.hi.sampler.num_samples + 1}
-  base.set_fields(c, table)
-  assert (c.hi.sampler.num_samples, c.baseline.num_samples) == (12, 13)
+           "baseline.num_samples": base.Derived(lambda c, scene: c.hi.sampler.num_samples + 1)}
+  toy = base.Method("toy", base.every_kind(table))
+  c = configure.load_scene("configs/blender.py:lego_8view_cpu")
+  rules = base.write_values(c, toy.table("sphere"))
+  assert c.hi.sampler.num_samples == 12 and [r[0] for r in rules] == ["baseline.num_samples"]
+  base.write_derived(c, c, rules)
+  assert c.baseline.num_samples == 13
+  # an override of the source moves the derived field; an override of the
+  # derived field wins over its rule
+  with mock.patch.dict(methods.METHODS._entries, {"toy": toy}):  # pylint: disable=protected-access
+    got = configure.compose("configs/blender.py:lego_8view_cpu", "toy",
+                            {"hi.sampler.num_samples": 20})
+    assert (got.hi.sampler.num_samples, got.baseline.num_samples) == (20, 21)
+    got = configure.compose("configs/blender.py:lego_8view_cpu", "toy",
+                            {"baseline.num_samples": 7})
+    assert (got.hi.sampler.num_samples, got.baseline.num_samples) == (12, 7)
+  with pytest.raises(KeyError, match="hi.sampler.num_sample'; nearest: hi.sampler.num_samples"):
+    base.write_values(c, {"hi.sampler.num_sample": 3})
   with pytest.raises(KeyError, match="hi.sampler.num_sample"):
-    base.set_fields(c, {"hi.sampler.num_sample": 3})
+    base.write_values(c, {"hi.sampler.num_sample": base.Derived(lambda c, scene: 3)})
 
 
 def test_halo_is_its_table_on_each_scene_kind():
-  from halo_jax.methods import halo
+  from halo_jax.methods import base, halo
   for spec, kind in (("configs/blender.py:lego_8view_cpu", "sphere"),
                      ("configs/llff.py:fern_4view_cpu", "ndc"),
                      ("configs/dnerf.py:hook_cpu", "dynamic"),
                      ("configs/stanford_lf.py:knights_cpu", "two_plane")):
-    c = configure.load(spec, "halo").to_dict()
+    composed = configure.load(spec, "halo")
+    scene = configure.load_scene(spec)
+    c = composed.to_dict()
     for dotted, value in halo.KINDS[kind].items():
-      if callable(value):
-        continue
+      if isinstance(value, base.Derived):  # its rule, on the composed config
+        value = value.rule(composed, scene)
       node = c
       for part in dotted.split("."):
         node = node[part]

@@ -12,6 +12,7 @@ from halo_jax import pipeline, raycast, rng, stages
 from halo_jax.stages import microbatch
 from halo_jax.stages import step as train_step
 from test_lightfield import lf_config, write_light_field
+from halo_jax.configure import finish  # pylint: disable=g-import-not-at-top
 
 
 def test_per_ray_draws_do_not_depend_on_the_cut():
@@ -59,7 +60,7 @@ def test_gradients_of_parts_equal_the_whole_batch():
 
 
 def _train_losses(c, wd):
-  pipeline.run(c, wd)
+  pipeline.run(finish(c), wd)
   recs = [json.loads(l) for l in open(os.path.join(wd, "metrics.jsonl"))]
   return [(r["stage"], r["step"], r["loss"]) for r in recs
           if "loss" in r and not r.get("heldout")]

@@ -19,6 +19,7 @@ import json, sys
 sys.path.insert(0, {tests!r})
 from conftest import pipeline_config
 from halo_jax import parallel, pipeline, user_errors
+from halo_jax.configure import finish  # pylint: disable=g-import-not-at-top
 pid, num = int(sys.argv[1]), int(sys.argv[2])
 c = pipeline_config({root!r}, {steps})
 c.eval.lpips = False
@@ -29,7 +30,7 @@ if num > 1:
                     num_processes=num, process_id=pid, heartbeat_s=10)
 parallel.initialize(c.parallel)
 with user_errors.reported():
-  infos = pipeline.run(c, {wd!r})
+  infos = pipeline.run(finish(c), {wd!r})
 print("DONE", json.dumps({{k: v["step"] for k, v in infos.items()}}), flush=True)
 """
 

@@ -23,6 +23,7 @@ from halo_jax.datasets import capture
 from halo_jax.integrations import nerfbaselines_method as nbm
 from halo_jax.integrations import nerfbaselines_scene as nbs
 from halo_jax.stages import pacing
+from halo_jax.configure import finish  # pylint: disable=g-import-not-at-top
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 NAMES = ["r_0", "r_13", "r_26", "r_39"]
@@ -111,8 +112,8 @@ def test_a_paced_run_is_the_run(scene_root, tmp_path):
   """Stepped one step at a time from another thread, the pipeline ends with
   the parameters of the same run left to itself."""
   c = pipeline_config(scene_root, steps=3)
-  pipeline.run(c, str(tmp_path / "free"))
-  paced = pacing.Paced(lambda p: pipeline.run(c, str(tmp_path / "paced"), None, p))
+  pipeline.run(finish(c), str(tmp_path / "free"))
+  paced = pacing.Paced(lambda p: pipeline.run(finish(c), str(tmp_path / "paced"), None, p))
   records = []
   while (r := paced.step()) is not None:
     records.append((r.stage, r.step))
@@ -226,7 +227,7 @@ def test_nerfbaselines_scores_a_halo_eval_output_as_we_do(nb_python, scene_root,
   backbone weights load, which needs a network)."""
   from halo_jax.cli import evaluate as evaluate_cli  # pylint: disable=g-import-not-at-top
   wd = str(tmp_path / "run")
-  pipeline.run(pipeline_config(scene_root, steps=2), wd)
+  pipeline.run(finish(pipeline_config(scene_root, steps=2)), wd)
   out = evaluate_cli.run_evaluation(wd, with_lpips=False)["out"]
   check = str(tmp_path / "check.json")
   run = subprocess.run([nb_python, os.path.join(ROOT, "experiments", "nerfbaselines_check.py"),

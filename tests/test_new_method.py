@@ -16,7 +16,8 @@ from halo_jax.methods import METHODS, base, nerf_tuned
 
 
 METHOD = base.Method("a toy: nerf_tuned with 8 samples a ray",
-                     base.on_top_of(nerf_tuned.METHOD.apply, {"hi.sampler.num_samples": 8}))
+                     base.on_top_of(nerf_tuned.METHOD,
+                                    base.every_kind({"hi.sampler.num_samples": 8})))
 METHODS.register("toy", METHOD)
 '''
 

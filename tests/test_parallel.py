@@ -16,6 +16,7 @@ sys.path.insert(0, {tests!r})
 import jax, jax.numpy as jnp
 from conftest import pipeline_config, tiny_config
 from halo_jax import parallel, pipeline, stages
+from halo_jax.configure import finish  # pylint: disable=g-import-not-at-top
 
 assert jax.device_count() == 2, jax.devices()
 c = tiny_config()
@@ -29,7 +30,7 @@ for dp, parts in ((False, 1), (False, 4), (True, 2)):
   c.eval.lpips = False
   assert c.hi.empty.weight > 0 and c.hi.density_noise > 0
   wd = {wd!r} + "/dp" + str(int(dp)) + "_" + str(parts)
-  pipeline.run(c, wd)
+  pipeline.run(finish(c), wd)
   recs = [json.loads(l) for l in open(wd + "/metrics.jsonl")]
   out["losses"][f"{{dp}}_{{parts}}"] = [[r["stage"], r["step"], r["loss"]] for r in recs
                                       if "loss" in r and not r.get("heldout")]

@@ -10,6 +10,8 @@ import pytest
 from conftest import tiny_config
 from halo_jax import configure, pipeline, protocol, registry, runs, step_table
 from halo_jax.stages import budget
+from conftest import editable  # pylint: disable=g-import-not-at-top
+from halo_jax.configure import finish  # pylint: disable=g-import-not-at-top
 
 STEP_S = {"lo": 0.1, "ray": 0.01, "hi": 0.2}
 SETUP_S = {"lo": 0.0, "ray": 2.0, "hi": 0.5}
@@ -182,7 +184,7 @@ def test_budgeted_runs_train_exactly_their_counts(scene_root, tmp_path):
   protocol.resolve(c)
   # lo: 1.0 s / 0.1; ray: 0.2 s / 0.01; hi: 0.8 s / 0.2
   assert (c.lo.budget_steps, c.ray.budget_steps, c.hi.budget_steps) == (10, 20, 4)
-  infos = pipeline.run(c, str(tmp_path / "run"))
+  infos = pipeline.run(finish(c), str(tmp_path / "run"))
   assert {n: i["step"] for n, i in infos.items()} == {"lo": 10, "ray": 20, "hi": 4}
   assert infos["hi"]["reference_end_s"] == pytest.approx(2.0)
 
@@ -214,13 +216,13 @@ def test_a_self_measured_stage_fixes_its_count_once_and_keeps_it(scene_root, tmp
   protocol.resolve(c)
   assert c.hi.max_seconds == pytest.approx(3.0)
   wd = str(tmp_path / "run")
-  infos = pipeline.run(c, wd)
+  infos = pipeline.run(finish(c), wd)
   fixed = budget.read_fixed(wd, "hi")
   assert infos["hi"]["step"] == fixed["steps"] == infos["hi"]["fixed_steps"]
   # its 3 s less the set-up it did before its loop, in its own steps
   assert 0.9 * 3.0 / fixed["step_s"] <= fixed["steps"] <= budget.fixed_count(c.hi, fixed["step_s"])
   # a relaunch keeps the count it fixed: nothing is left to train
-  again = pipeline.run(c, wd)
+  again = pipeline.run(finish(c), wd)
   assert again["hi"]["step"] == fixed["steps"]
 
 
@@ -258,7 +260,7 @@ def test_a_budget_on_the_command_line_resolves_as_one_in_the_file(scene, tmp_pat
   assert launched["line"].hi.init_from_lo and launched["line"].hi.encoding.with_lo
   assert _stages(launched["line"]) == _stages(launched["file"])
   # and the method applied to an already budgeted scene gives the same again
-  assert _stages(configure.as_method(configure.load_scene(str(in_file)), "halo")) == \
+  assert _stages(editable(configure.load_scene(str(in_file)), "halo")) == \
       _stages(launched["line"])
 
 
@@ -266,7 +268,7 @@ def test_a_budget_given_after_the_method_still_copies_lo_and_paper_does_not():
   c = configure.load("configs/llff.py:fern_4view", "halo",
                      {"protocol": "budget", "budget_s": 180.0})
   assert c.hi.init_from_lo and c.hi.encoding.with_lo
-  again = protocol.resolve(c.copy_and_resolve_references())
+  again = configure.finish(c)
   assert _stages(again) == _stages(c)  # idempotent
   cpu_as_paper = configure.load("configs/llff.py:fern_4view_cpu", "halo",
                                 {"protocol": "paper", "budget_s": 0.0})

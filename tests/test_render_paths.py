@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from halo_jax import camera, camera_paths, pipeline, video
+from halo_jax.configure import finish
 from halo_jax.datasets import base
 from halo_jax.datasets.base import DataError, Dataset, Views
 from halo_jax.datasets.llff import NDCViews
@@ -101,7 +102,7 @@ def test_path_files(tmp_path):
 
 def test_render_command_writes_three_videos(scene_root, tmp_path, capsys):
   wd = str(tmp_path / "run")
-  pipeline.run(pipeline_config(scene_root, steps=2), wd)
+  pipeline.run(finish(pipeline_config(scene_root, steps=2)), wd)
   capsys.readouterr()
   w = render_cli.render_path(wd, frames=6, fps=5)
   # a bar counts the frames and ends with the rays/s rendered

@@ -15,6 +15,7 @@ import pytest
 from halo_jax import checkpoint, defaults, pipeline, stages
 from halo_jax.stages import loop
 from halo_jax.stages import step as train_step
+from halo_jax.configure import finish  # pylint: disable=g-import-not-at-top
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
@@ -96,7 +97,7 @@ for name in ("lo", "ray", "hi"):
   c[name].update(steps=60, checkpoint_every=10, log_every=5)
   c[name].batch_rays = 128
 c.lo.eval_every = c.hi.eval_every = 20
-pipeline.run(c, {wd!r})
+pipeline.run(finish(c), {wd!r})
 print("DONE")
 """
 
@@ -157,7 +158,7 @@ def test_workdir_of_another_config_is_refused(config, scene_root, tmp_path):
   config.data.root = scene_root
   config.stages = "lo"
   wd = str(tmp_path / "run")
-  pipeline.run(config, wd)
+  pipeline.run(finish(config), wd)
   # Longer training and other stages are fine in the same workdir...
   config.lo.steps = 8
   stages.check_workdir(config, wd)
@@ -167,7 +168,7 @@ def test_workdir_of_another_config_is_refused(config, scene_root, tmp_path):
   with pytest.raises(stages.WorkdirMismatch, match=r"config.json: this workdir holds a run made "
                      r"with another config \(2 fields differ: lo.encoding.L: 5 -> 7, "
                      r"lo.model.width: 32 -> 48\)"):
-    pipeline.run(config, wd)
+    pipeline.run(finish(config), wd)
 
 
 def test_progress_bar_of_a_stage_resumed_past_its_budget():

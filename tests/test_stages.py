@@ -12,6 +12,7 @@ import pytest
 from conftest import assert_trained, tiny_config
 from halo_jax import models, pipeline, registry, stages, validate
 from halo_jax.stages import transfer
+from halo_jax.configure import finish  # pylint: disable=g-import-not-at-top
 
 REPO = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
@@ -32,7 +33,7 @@ def test_all_stages_then_hi_alone_reuses_earlier_states(config, scene_root, tmp_
                         lr_final=5e-3)
   config.lo.fg_steps = 4   # the foreground phase's code path, ended in time to judge the fit
   wd = str(tmp_path / "run")
-  infos = pipeline.run(config, wd)
+  infos = pipeline.run(finish(config), wd)
   assert list(infos) == ["lo", "ray", "hi"]
   for name in ("lo", "hi"):
     ev = json.load(open(os.path.join(wd, name, "eval", "metrics.json")))
@@ -60,20 +61,20 @@ def test_all_stages_then_hi_alone_reuses_earlier_states(config, scene_root, tmp_
   # more steps from hi's checkpoint.
   config.stages = "hi"
   config.hi.steps = 62
-  infos = pipeline.run(config, wd)
+  infos = pipeline.run(finish(config), wd)
   assert list(infos) == ["hi"] and infos["hi"]["step"] == 62
 
 
 @pytest.mark.slow
 def test_nerf_baseline_needs_no_earlier_stage(scene_root, tmp_path):
-  from halo_jax.methods import nerf_tuned
+  from halo_jax import methods
   config = tiny_config(method="")
   config.data.root = scene_root
   config.baseline.num_samples = 8
-  nerf_tuned.apply(config)
+  config = methods.apply(config, "nerf_tuned")
   config.hi.sampler.kind = "hierarchical"
   assert pipeline.needed(config) == ("hi",)
-  infos = pipeline.run(config, str(tmp_path / "nerf"))
+  infos = pipeline.run(finish(config), str(tmp_path / "nerf"))
   assert infos["hi"]["step"] == config.hi.steps
 
 
@@ -81,7 +82,7 @@ def test_missing_earlier_stage_is_a_clear_error(config, scene_root, tmp_path):
   config.data.root = scene_root
   config.stages = "hi"
   with pytest.raises(FileNotFoundError, match="stage 'lo' has not finished"):
-    pipeline.run(config, str(tmp_path / "empty"))
+    pipeline.run(finish(config), str(tmp_path / "empty"))
 
 
 def test_min_steps_and_target_rays_are_validated(config):

@@ -9,6 +9,8 @@ import pytest
 
 from conftest import assert_trained, tiny_config
 from halo_jax import camera, configure, losses, pipeline, protocol, visibility
+from conftest import editable  # pylint: disable=g-import-not-at-top
+from halo_jax.configure import finish  # pylint: disable=g-import-not-at-top
 
 
 def _numpy_in_frustum(point, c2w, focal, width, height):
@@ -51,13 +53,13 @@ def test_unseen_density_is_the_mean_over_unseen_points_only():
 
 def test_halo_unseen_is_halo_plus_one_term_on_both_nerfs_and_left_out_where_all_is_seen():
   from configs import llff, procedural
-  halo = configure.as_method(procedural.get_config("spheres_8view_cpu"), "halo")
-  ours = configure.as_method(procedural.get_config("spheres_8view_cpu"), "halo+unseen")
+  halo = editable(procedural.get_config("spheres_8view_cpu"), "halo")
+  ours = editable(procedural.get_config("spheres_8view_cpu"), "halo+unseen")
   assert (ours.lo.unseen.weight, ours.hi.unseen.weight) == (0.01, 0.01)
   ours.lo.unseen.weight = ours.hi.unseen.weight = 0.0
   ours.method = "halo"
-  assert protocol.resolve(ours).to_dict() == halo.to_dict()  # steps from halo's table entries
-  fern = configure.as_method(llff.get_config("fern_4view_cpu"), "halo+unseen")
+  assert configure.finish(ours).to_dict() == halo.to_dict()  # steps from halo's table entries
+  fern = editable(llff.get_config("fern_4view_cpu"), "halo+unseen")
   assert fern.lo.unseen.weight == fern.hi.unseen.weight == 0.0
 
 
@@ -75,7 +77,7 @@ def test_l_unseen_lowers_lo_nerfs_density_where_no_camera_looks(config, scene_ro
   for weight in (1.0, 1e-9):
     c.lo.unseen.update(num_points=512, bank_points=8192, weight=weight)
     wd = str(tmp_path / f"w{weight}")
-    infos = pipeline.run(c, wd)
+    infos = pipeline.run(finish(c), wd)
     assert infos["lo"]["skipped"] == 0
     psnr[weight] = infos["lo"]["eval"]["psnr"]
     log = [json.loads(line) for line in open(os.path.join(wd, "metrics.jsonl"))]

@@ -11,6 +11,7 @@ import pytest
 
 from conftest import pipeline_config
 from halo_jax import evaluate, pipeline, restore, viewer
+from halo_jax.configure import finish  # pylint: disable=g-import-not-at-top
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
@@ -18,7 +19,7 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 @pytest.fixture(scope="module")
 def finished_run(scene_root, tmp_path_factory):
   wd = str(tmp_path_factory.mktemp("run"))
-  pipeline.run(pipeline_config(scene_root, steps=2), wd)
+  pipeline.run(finish(pipeline_config(scene_root, steps=2)), wd)
   return wd
 
 
@@ -147,7 +148,7 @@ def test_a_run_still_training_shows_its_latest_checkpoint_and_curves(scene_root,
   from halo_jax.stages import pacing  # pylint: disable=g-import-not-at-top
   wd = str(tmp_path / "run")
   c = pipeline_config(scene_root, steps=4)
-  paced = pacing.Paced(lambda p: pipeline.run(c, wd, None, p))
+  paced = pacing.Paced(lambda p: pipeline.run(finish(c), wd, None, p))
   while (rec := paced.step()).stage != "hi" or rec.step < 2:
     pass
   def save_now(run):  # a checkpoint at the step reached (the loop's own may be there)

@@ -42,8 +42,8 @@ from experiments.bench import (adopt, benchmark, code_version, fronts_report, ga
                                git_state, report_common, run_file, selection, suites, tool)
 from experiments.bench.paths import REPO
 from experiments.bench.studies import MATCHED_STEPS, STUDIES, Study, Variant  # noqa: F401
-from halo_jax import progress, protocol, runs
-from halo_jax.configure import set_field
+from halo_jax import frozen, progress, protocol, runs
+from halo_jax.configure import finish
 
 FLAGS = flags.FLAGS
 
@@ -86,19 +86,19 @@ def matched_steps(results: str, scene: suites.Scene) -> dict:
 
 def configure(study: Study, scene: suites.Scene, variant: Variant, seed: int, scratch: str,
               results: str):
-  c = benchmark.configure(_terms(study), scene, variant.method, seed, "budget", scratch)
-  for field, value in variant.overrides:
-    set_field(c, field, value)
+  no_front = (("eval.front_s", ()),) if study.budget == "time" and not study.front else ()
+  c = benchmark.configure(_terms(study), scene, variant.method, seed, "budget", scratch,
+                          tuple(variant.overrides) + no_front)
   if study.budget == "time":
-    if not study.front:
-      c.eval.front_s = ()
     return c
+  # equal steps: the suite run's counts as caps on the composed run
+  c = frozen.thaw(c)
   caps = {n: max(steps, c[n].min_steps)  # a suite run that trained less than the floor
           for n, steps in matched_steps(results, scene).items()}
   protocol.steps(c, caps)
   for n, steps in caps.items():
     c[n].eval_every = max(1, steps // 2)
-  return protocol.resolve(c)
+  return finish(c)
 
 
 def run_one(study_name, study, scene, variant, seed, results, scratch) -> dict:

@@ -7,7 +7,7 @@ import os
 
 from absl import logging
 
-from halo_jax import config_files, defaults, protocol
+from halo_jax import config_files, defaults
 from experiments.bench import git_state
 from experiments.bench import benchmark, code_version, suites
 
@@ -67,7 +67,7 @@ def identical_suite_run(c, scene, method, seed, results, table=None, mine_fp=Non
   fingerprint vouches for, is refused with a warning: its run is trained."""
   table = code_version.load() if table is None else table
   mine_fp = running_fingerprint(method, table, scene.config) if mine_fp is None else mine_fp
-  mine = _comparable(json.loads(protocol.resolve(c).to_json_best_effort()))
+  mine = _comparable(json.loads(c.to_json_best_effort()))  # c is composed: resolved
   for name in sorted(suites.SUITES):
     path = benchmark.result_path(results, name, "budget", scene, method, seed)
     if os.path.exists(path):

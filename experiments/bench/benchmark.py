@@ -30,7 +30,7 @@ from absl import flags, logging
 from experiments.bench import git_state, run_file, selection, suites, tool
 from experiments.bench.paths import REPO, result_path, workdir_of  # the last two re-exported
 from halo_jax import defaults, progress, protocol, runs
-from halo_jax.configure import load as method_config, set_field
+from halo_jax.configure import compose
 from halo_jax.stages import collapse
 
 FLAGS = flags.FLAGS
@@ -72,32 +72,31 @@ def plan(suite: suites.Suite, only: str = ""):
 
 
 def configure(suite: suites.Suite, scene: suites.Scene, method: str, seed: int, mode: str,
-              scratch: str):
-  """The run's config: the scene's config as `method`, this seed and mode."""
+              scratch: str, overrides=()):
+  """The run's frozen config (configure.compose): the scene's config as
+  `method`, this seed and mode, the suite's, the scene's and then
+  `overrides`' fields ((dotted field, value) pairs: a study's variant)."""
   from halo_jax import pipeline
-  c = method_config(scene.config, method)
-  c.seed = seed
-  if c.data.kind == "procedural" and not c.data.root:  # generated once, shared by runs
-    c.data.root = os.path.join(scratch, "scenes",
-                               f"{c.data.procedural_scene}_{c.data.procedural_size}")
-  c.eval.front_s = tuple(suite.front_s)
-  for field, value in suite.overrides + scene.overrides:
-    set_field(c, field, value)
   if mode not in ("budget", "steps"):
     raise ValueError(f"mode={mode!r}: must be 'budget' or 'steps'")
-  names = pipeline.needed(c, c.final_stage)
+  proto = suite.budget_s if mode == "budget" else "steps"
+  fields = {"seed": seed, "eval.front_s": tuple(suite.front_s),
+            **dict(suite.overrides + scene.overrides + tuple(overrides))}
+  first = compose(scene.config, method, fields, protocol=proto)  # its stages and data
+  if first.data.kind == "procedural" and not first.data.root:  # generated once, shared by runs
+    fields["data.root"] = os.path.join(
+        scratch, "scenes", f"{first.data.procedural_scene}_{first.data.procedural_size}")
+  names = pipeline.needed(first, first.final_stage)
   if mode == "budget":
-    protocol.budget(c, suite.budget_s)
     for n in names:  # on the reference clock: the same steps on any machine
-      c[n].eval_every_s = suite.budget_s / suite.curve_points
-  elif mode == "steps":
-    protocol.steps(c)
-    parts = protocol.split(c, suite.steps)
+      fields[f"{n}.eval_every_s"] = suite.budget_s / suite.curve_points
+  else:
+    parts = protocol.split(first, suite.steps)
     for n in names:
-      c[n].steps = max(1, round(parts[n]))
+      fields[f"{n}.steps"] = max(1, round(parts[n]))
       # the curve's points evenly spread over the method's steps
-      c[n].eval_every = max(1, int(suite.steps / suite.curve_points))
-  return protocol.resolve(c)
+      fields[f"{n}.eval_every"] = max(1, int(suite.steps / suite.curve_points))
+  return compose(scene.config, method, fields, protocol=proto)
 
 
 def score_validation(workdir: str, record: dict, split: str) -> dict:

@@ -141,11 +141,10 @@ def _halo_hi_steps(scene: suites.Scene, budget_s: float) -> int:
   """The steps halo's Hi-NeRF trains on `scene` at `budget_s` reference
   seconds (the committed step table's count)."""
   import dataclasses  # pylint: disable=import-outside-toplevel
-  from halo_jax import protocol  # pylint: disable=import-outside-toplevel
   from experiments.bench import benchmark  # pylint: disable=import-outside-toplevel
   terms = dataclasses.replace(suites.CPU, budget_s=budget_s)
-  return protocol.resolve(benchmark.configure(terms, scene, "halo", 0, "budget",
-                                              "/tmp/halo_study_steps")).hi.budget_steps
+  return benchmark.configure(terms, scene, "halo", 0, "budget",
+                             "/tmp/halo_study_steps").hi.budget_steps
 
 
 def _knights_steps_study(budget_s: float) -> Study:

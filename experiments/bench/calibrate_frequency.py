@@ -26,10 +26,10 @@ from absl import flags, logging
 
 from experiments.bench import run_file, suites, tool
 from experiments.bench.paths import REPO
-from halo_jax import defaults, protocol
+from halo_jax import defaults
 from experiments.bench import git_state
 from experiments.bench import frequency_calibration as calibration
-from halo_jax.configure import load as method_config, set_field
+from halo_jax.configure import compose
 
 FLAGS = flags.FLAGS
 
@@ -61,17 +61,13 @@ VIEWS = {"test": (SCENES, "frequency", "frequency_calibration"),
 
 
 def configure(scene, lo_steps, scratch, validation=False):
-  c = method_config(scene.config, "halo")
-  if validation:
-    for field, value in suites.VALIDATION_VIEWS + tuple(scene.overrides):
-      set_field(c, field, value)
-  if c.data.kind == "procedural" and not c.data.root:
-    c.data.root = os.path.join(scratch, "scenes",
-                               f"{c.data.procedural_scene}_{c.data.procedural_size}")
-  c.tune.lo_steps = lo_steps
-  c.tune.lo_seconds = 0.0
-  protocol.steps(c)
-  return c
+  fields = dict(suites.VALIDATION_VIEWS + tuple(scene.overrides)) if validation else {}
+  fields.update({"tune.lo_steps": lo_steps, "tune.lo_seconds": 0.0})
+  first = compose(scene.config, "halo", fields, protocol="steps")
+  if first.data.kind == "procedural" and not first.data.root:
+    fields["data.root"] = os.path.join(
+        scratch, "scenes", f"{first.data.procedural_scene}_{first.data.procedural_size}")
+  return compose(scene.config, "halo", fields, protocol="steps")
 
 
 def run_scene(scene, lo_steps, scratch, results, validation=False):

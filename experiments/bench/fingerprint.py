@@ -21,13 +21,12 @@ held-out PSNR per view. code_version.py hashes them per method.
 This module is the measuring instrument: same_numbers.py --commit copies it,
 with the script, into a worktree of the commit it measures.
 """
-import copy
 import json
 import os
 
-from halo_jax import protocol, step_table
+from halo_jax import frozen, protocol, step_table
 from experiments.bench import benchmark, suites
-from halo_jax.configure import set_field
+from halo_jax.configure import finish, set_field
 from halo_jax.stages import collapse, metrics_log
 from halo_jax.stages.order import needed
 
@@ -107,7 +106,7 @@ def configure(scene: suites.Scene, method: str, workdir: str):
   its table written under `workdir`."""
   full = suite_config(scene, method, os.path.join(workdir, "scratch"))
   counts = stage_steps(full)
-  c = shrink(copy.deepcopy(full))
+  c = shrink(frozen.thaw(full))
   c.eval.lpips = False
   c.eval.save_images = False
   c.eval.flicker_frames = 3  # a dynamic scene's flicker video at its least
@@ -117,7 +116,7 @@ def configure(scene: suites.Scene, method: str, workdir: str):
   with open(c.step_table, "w") as f:
     json.dump(fingerprint_table(c, counts), f)
   protocol.budget(c, full.budget_s)
-  c = protocol.resolve(c)
+  c = finish(c)
   counts = {n: int(c[n].budget_steps) for n in counts}
   return c, counts
 

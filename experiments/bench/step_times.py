@@ -25,7 +25,6 @@ apart. The table's `machine` record says where and with which code it was
 measured. Every scene of one kind and size shares its key, so a scene outside
 the suites finds its entry without a measurement of its own.
 """
-import copy
 import dataclasses
 import json
 import os
@@ -36,7 +35,8 @@ import time
 
 from absl import flags, logging
 
-from halo_jax import atomic, pipeline, progress, protocol, step_table
+from halo_jax import atomic, frozen, pipeline, progress, protocol, step_table
+from halo_jax.configure import finish
 from experiments.bench import git_state
 from experiments.bench import benchmark, selection, studies, suites, tool
 
@@ -104,12 +104,12 @@ def keys_of(config) -> dict:
 def measuring_config(config, caps: dict):
   """The method's config step-capped at `caps` ({stage: steps}), its scoring
   cut to what a finished stage needs (its keys are those of `config`)."""
-  c = protocol.steps(copy.deepcopy(config), caps)
+  c = protocol.steps(frozen.thaw(config), caps)
   for n in caps:
     c[n].update(eval_every=0, checkpoint_every=10 ** 6, select_best=False)
     c[n].min_steps = 0
   c.eval.update(lpips=False, save_images=False, front_s=(), curve_views=1, flicker_frames=3)
-  return protocol.resolve(c)
+  return finish(c)
 
 
 def measure(suite, scene, method, scratch) -> dict:

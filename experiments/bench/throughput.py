@@ -11,7 +11,6 @@ geometry (throughput does not depend on the weights). Writes one result file,
 results/throughput/<config>/<machine>/<UTC time>_<commit>.json, committed so
 that the next measurement is compared with it (experiments/throughput_report.py).
 """
-import copy
 import functools
 import os
 import sys
@@ -27,7 +26,7 @@ from experiments.bench import run_file, throughput_report, tool, trace_summary
 from experiments.bench.paths import REPO
 from halo_jax import camera, geometry, models, ray_fields
 from experiments.bench import git_state
-from halo_jax import config_files, configure, raycast
+from halo_jax import config_files, frozen, raycast
 from halo_jax.cli import config_of_flags
 from halo_jax.rays import Pixels, Rays, Targets
 from halo_jax.stages import batches, radiance, ray, terms
@@ -96,9 +95,7 @@ def _rays(n, key=0):
 def as_xla(config):
   """A copy of config whose models evaluate sin and cos with XLA's own
   functions: the form FLOPs are counted on."""
-  c = copy.deepcopy(config)
-  c.sin_cos = "xla"
-  return c
+  return frozen.replaced(config, {"sin_cos": "xla"})
 
 
 def step_throughput(loss_fn, cfg, params, data, rays_per_step, samples_per_ray, flops_loss_fn):

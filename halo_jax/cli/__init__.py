@@ -12,11 +12,12 @@ imports it. The commands that take a --config take the method apart from it
 halo_jax/configure.py makes it into the method.
 """
 import contextlib
+import sys
 
-from absl import flags, logging
+from absl import app, flags, logging
 from ml_collections import config_flags
 
-from halo_jax import config_files, configure, methods, user_errors, workdir_lock
+from halo_jax import config_files, configure, frozen, methods, user_errors, workdir_lock
 
 
 def define_method_flag():
@@ -31,16 +32,46 @@ def define_config_flag(help_string: str = "Scene config (path[:variant])."):
   config_flags.DEFINE_config_file("config", None, help_string, lock_config=True)
 
 
-def config_of_flags(config_flag, method: str):
-  """--config's scene, read by configure.load_scene (the one loader of every
-  entry point) with --config's dotted overrides set, made into `method`, with
-  the overrides set again after the method, so that an override wins over
-  what the method sets. config_flag: FLAGS['config']."""
-  overrides = config_files.dotted_fields(config_flags.get_override_values(config_flag))
-  scene = configure.load_scene(config_flags.get_config_filename(config_flag))
-  for field, value in overrides.items():  # the scene a method reads, as overridden
-    configure.set_field(scene, field, value)
-  return configure.as_method(scene, method, overrides)
+def config_of_flags(config_flag, method: str, overrides=None):
+  """The run's frozen config: --config's scene made into `method` with
+  --config's dotted overrides (then `overrides`, a command's own), by
+  configure.compose, the composition every entry point shares.
+  config_flag: FLAGS['config']."""
+  fields = config_files.dotted_fields(config_flags.get_override_values(config_flag))
+  fields.update(overrides or {})
+  return configure.compose(config_flags.get_config_filename(config_flag), method, fields)
+
+
+def unknown_override(argv) -> str:
+  """The one-line refusal of the first --config.<field>=VALUE in argv whose
+  field the scene's config lacks (with the nearest field names), or ''.
+  ml_collections would refuse it too, in a traceback, while parsing flags."""
+  spec = next((a.split("=", 1)[1] for a in argv if a.startswith("--config=")), None)
+  fields = [a.split("=", 1)[0][len("--config."):] for a in argv if a.startswith("--config.")]
+  if not spec or not fields:
+    return ""
+  try:
+    scene = configure.load_scene(spec)
+  except Exception:  # pylint: disable=broad-except
+    return ""  # a config that does not load is reported by the flag's own parse
+  for field in fields:
+    try:
+      frozen.get_field(scene, field)
+    except KeyError as e:
+      return f"--config.{field}: {e.args[0]} ({spec})"
+  return ""
+
+
+def run_app(main, argv=None):
+  """absl's app.run of `main` with --config's spec resolved
+  (config_files.resolve_argv), after a mistyped override field is refused
+  in one line and exit 2."""
+  argv = config_files.resolve_argv(argv)
+  refused = unknown_override(argv)
+  if refused:
+    print(f"error: {refused}", file=sys.stderr)
+    raise SystemExit(user_errors.EXIT_CODE)
+  app.run(main, argv=argv)
 
 
 @contextlib.contextmanager

@@ -14,14 +14,14 @@ import json
 import os
 import sys
 
-from absl import app, flags
+from absl import flags
 import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # pylint: disable=g-import-not-at-top
 
-from halo_jax import config_files, datasets, methods, pipeline, runs, tables
-from halo_jax.cli import config_of_flags, define_config_flag, launch
+from halo_jax import datasets, methods, pipeline, runs, tables
+from halo_jax.cli import run_app, config_of_flags, define_config_flag, launch
 
 FLAGS = flags.FLAGS
 
@@ -38,20 +38,28 @@ def define_flags():
   flags.mark_flags_as_required(["config", "workdir"])
 
 
+def _run_fields(c) -> dict:
+  """The fields this command sets on a method's config: the built-in
+  scene's folder (generated once, shared) and the held-out curve's spacing."""
+  fields = {}
+  if c.data.kind == "procedural" and not c.data.root:
+    fields["data.root"] = os.path.join(FLAGS.workdir, f"scene_{c.data.procedural_scene}")
+  for name in pipeline.stage_names(c):
+    fields[f"{name}.eval_every_s"] = (c.budget_s / max(FLAGS.curve_points, 1)
+                                      if c.budget_s else 0.0)
+  return fields
+
+
 def method_configs(load, names, all_views):
   """{method: its config on this scene} (halo_jax.methods), plus
-  nerf_tuned on every training view with all_views. load: method -> that
-  method's config (each applied once to the scene's own config)."""
-  out = {name: load(name) for name in names}
+  nerf_tuned on every training view with all_views. load: (method,
+  overrides) -> that method's composed config (configure.compose)."""
+  runs_of = {name: (name, {}) for name in names}
   if all_views:
-    ref = load("nerf_tuned")
-    ref.data.train_views = "all"
-    out["nerf_tuned_all_views"] = ref
-  for c in out.values():
-    if c.data.kind == "procedural" and not c.data.root:  # generated once, shared
-      c.data.root = os.path.join(FLAGS.workdir, f"scene_{c.data.procedural_scene}")
-    for name in pipeline.stage_names(c):
-      c[name].eval_every_s = c.budget_s / max(FLAGS.curve_points, 1) if c.budget_s else 0.0
+    runs_of["nerf_tuned_all_views"] = ("nerf_tuned", {"data.train_views": "all"})
+  out = {}
+  for key, (method, fields) in runs_of.items():
+    out[key] = load(method, {**fields, **_run_fields(load(method, fields))})
   return out
 
 
@@ -113,7 +121,7 @@ def run(config):
       results = json.load(f)
   n_test = 0
   del config
-  load = lambda name: config_of_flags(FLAGS["config"], name)  # pylint: disable=unnecessary-lambda-assignment
+  load = lambda name, fields: config_of_flags(FLAGS["config"], name, fields)  # pylint: disable=unnecessary-lambda-assignment
   for name, cfg in method_configs(load, FLAGS.methods, FLAGS.all_views_reference).items():
     dataset = datasets.load(cfg.data, os.path.join(FLAGS.workdir, name))
     n_test = len(dataset.test.names)
@@ -132,7 +140,7 @@ def run(config):
 def cli():
   """The halo-compare console script."""
   define_flags()
-  app.run(main, argv=config_files.resolve_argv())
+  run_app(main)
 
 
 if __name__ == "__main__":

@@ -11,14 +11,13 @@ score), and writes them to <out>/metrics.json, beside the renders in
 nerfbaselines' layout (halo_jax/evaluate/predictions.py). <out> defaults to
 DIR/<stage>/evaluate-<split>.
 """
-import copy
 import json
 import os
 
 from absl import app, flags
 import numpy as np
 
-from halo_jax import datasets, evaluate, provenance, restore
+from halo_jax import datasets, evaluate, frozen, provenance, restore
 from halo_jax.evaluate import predictions
 from halo_jax.cli import launch
 from halo_jax.stages import collapse
@@ -48,7 +47,7 @@ def split_views(run: restore.Restored, split: str, views: str):
     return run.dataset.test
   if split == "train" and not views:
     return run.dataset.train
-  data = copy.deepcopy(run.config.data)
+  data = frozen.thaw(run.config.data)  # a view list of the run's scene
   if split == "train":
     data.train_views = views
     return datasets.load(data, run.workdir).train

@@ -11,16 +11,15 @@ the held-out PSNR / SSIM / LPIPS of the last stage run, its training seconds
 and, when the point trained a Lo-NeRF, the frequency criterion of that Lo-NeRF
 (halo_jax/frequency/tuning.py, settings from config.tune).
 """
-import copy
 import itertools
 import json
 import os
 
-from absl import app, flags
+from absl import flags
 
-from halo_jax import config_files, configure, datasets, pipeline, plots, progress, stages, tables
+from halo_jax import datasets, pipeline, plots, progress, stages, tables
 from halo_jax.frequency import tuning
-from halo_jax.cli import config_of_flags, define_config_flag, define_method_flag, launch
+from halo_jax.cli import run_app, config_of_flags, define_config_flag, define_method_flag, launch
 from halo_jax.stages import radiance
 
 FLAGS = flags.FLAGS
@@ -74,19 +73,12 @@ def parse_sweeps(config, specs):
   return [list(p) for p in itertools.product(*axes)] if axes else [[]]
 
 
-def apply(config, point):
-  c = copy.deepcopy(config)
-  for field, value in point:
-    configure.set_field(c, field, value)
-  return c
-
-
 def label(point):
   return ",".join(f"{f}={v:g}" if isinstance(v, float) else f"{f}={v}" for f, v in point) or "base"
 
 
-def run_point(config, point, workdir, dataset, with_criterion):
-  c = apply(config, point)
+def run_point(compose, point, workdir, dataset, with_criterion):
+  c = compose(point)
   wd = os.path.join(workdir, label(point))
   if any(f.startswith("data.") for f, _ in point):  # this point's own views or scene
     dataset = datasets.load(c.data, wd)
@@ -119,17 +111,20 @@ def report(rows, workdir):
 def main(argv):
   del argv
   with launch(FLAGS.workdir):
-    run(config_of_flags(FLAGS["config"], FLAGS.method))
+    run(config_of_flags(FLAGS["config"], FLAGS.method),
+        lambda point: config_of_flags(FLAGS["config"], FLAGS.method, dict(point)))
 
 
-def run(config):
-  """The experiment in FLAGS.workdir (locked by main)."""
+def run(config, compose):
+  """The experiment in FLAGS.workdir (locked by main): `config` is the
+  base point's, compose(point) a point's (its fields as overrides, so that
+  what the method derives from a swept field follows it)."""
   os.makedirs(FLAGS.workdir, exist_ok=True)
   points = parse_sweeps(config, FLAGS.sweep)
   dataset = datasets.load(config.data, FLAGS.workdir)
   rows = []
   for point in progress.steps(points, "points", "sweep"):
-    rows.append(run_point(config, point, FLAGS.workdir, dataset, FLAGS.criterion))
+    rows.append(run_point(compose, point, FLAGS.workdir, dataset, FLAGS.criterion))
     with open(os.path.join(FLAGS.workdir, "results.json"), "w") as f:
       json.dump({"points": rows}, f, indent=1)
   print(report(rows, FLAGS.workdir))
@@ -138,7 +133,7 @@ def run(config):
 def cli():
   """The halo-sweep console script."""
   define_flags()
-  app.run(main, argv=config_files.resolve_argv())
+  run_app(main)
 
 
 if __name__ == "__main__":

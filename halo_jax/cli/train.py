@@ -7,10 +7,10 @@ This file is kept short: the logic lives in `halo_jax.pipeline`.
 """
 import json
 
-from absl import app, flags
+from absl import flags
 
-from halo_jax import config_files, parallel, pipeline
-from halo_jax.cli import config_of_flags, define_config_flag, define_method_flag, launch, view
+from halo_jax import parallel, pipeline
+from halo_jax.cli import run_app, config_of_flags, define_config_flag, define_method_flag, launch, view
 
 FLAGS = flags.FLAGS
 define_config_flag()
@@ -36,7 +36,7 @@ def main(argv):
 
 def cli():
   """The halo-train console script."""
-  app.run(main, argv=config_files.resolve_argv())
+  run_app(main)
 
 
 if __name__ == "__main__":

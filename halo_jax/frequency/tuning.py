@@ -71,7 +71,7 @@ def point_config(config, L, scale):
   c.lo.max_seconds = float(c.tune.lo_seconds)
   if c.tune.lo_steps:
     c.lo.steps = c.tune.lo_steps
-  return c
+  return frozen.freeze(protocol.resolve(c))
 
 
 def point_dir(workdir, L, scale):

@@ -6,14 +6,15 @@ module here plus one `register` line below, never an edit to the pipeline.
 
   c = methods.apply(configs.blender.get_config("lego_8view_cpu"), "freenerf")
 
-halo_jax/configure.py is the one place a launch does this (then sets the
-command line's overrides).
+halo_jax/configure.py's compose is the one place a launch does this, with
+the user's overrides between the method's values and its derived fields.
 """
 import copy
 
-from halo_jax import datasets, geometry, registry
+from halo_jax import datasets, frozen, geometry, registry
 from halo_jax.methods import (freenerf, halo, halo_authors, halo_auto, halo_freenerf, halo_joint,
                               halo_unseen, nerf_paper, nerf_tuned)
+from halo_jax.methods import base
 from halo_jax.methods.base import Method
 
 # In the order tables list them.
@@ -33,21 +34,30 @@ def with_role(*roles) -> tuple:
   """The registered methods whose `role` is one of `roles`, in table order."""
   return tuple(n for n, m in METHODS.items() if m.role in roles)
 
-def apply(config, name: str):
-  """A copy of the scene config `config` turned into method `name` (METHODS).
+def apply(config, name: str, overrides=None):
+  """A copy of the scene config `config` turned into method `name` (METHODS):
+  the method's table for the scene's kind (methods/base.py), its values, then
+  `overrides` ({dotted field: value}), then its derived fields not
+  overridden. The one order every entry point uses (configure.compose).
 
   A method is applied once, to a scene's config as its file builds it:
   making a config that is already one method into another would carry the
   first one's settings into the second (HALO's into a baseline). That is
-  refused; make each method from the scene's config (configure.as_method).
+  refused; make each method from the scene's config.
   """
   done = config.get("method", "")
   if done:
     raise ValueError(f"this config is already method {done!r}; make {name!r} from the "
-                     "scene's config (halo_jax.configure.as_method)")
+                     "scene's config (halo_jax.configure.compose)")
   method = METHODS.get(name, "method")
   _check_scene(method, name, config.data)
-  c = method.apply(copy.deepcopy(config))
+  scene = copy.deepcopy(config)
+  c = copy.deepcopy(config)
+  rules = base.write_values(c, method.table(datasets.scene_kind(scene.data)))
+  overrides = dict(overrides or {})
+  for field, value in overrides.items():
+    frozen.set_field(c, field, value)
+  base.write_derived(c, scene, rules, skip=overrides)
   c.method = name
   return c
 

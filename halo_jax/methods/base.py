@@ -1,46 +1,97 @@
-"""The Method record, apart from the registry so method modules can import it."""
+"""The Method record and its tables, apart from the registry so method
+modules can import them.
+
+A method declares, per scene kind, a table of dotted config fields: values,
+structural edits of a section (`Edit`), and derived fields (`Derived`).
+configure.compose writes them in one order, whatever the entry point:
+the scene's config, then the table's values and edits, then the user's
+overrides, then each derived field not overridden, in the table's order.
+So a derived field follows its source whether a table or an override set
+it, and nothing a method sets depends on the order the user's choices came in.
+"""
 import dataclasses
-from typing import Any, Callable, Mapping, Protocol, Union
+from typing import Any, Callable, Dict, Mapping, Tuple
 
 from halo_jax import frozen, geometry
 from halo_jax.types import Config
 
+# The scene kinds a method's tables are keyed by (datasets.scene_kind).
+KINDS = ("sphere", "ndc", "dynamic", "two_plane")
 
-class ApplyFn(Protocol):
-  """Edits a scene's config into the method's (in place) and returns it."""
-  def __call__(self, config: Config) -> Config: ...
+
+@dataclasses.dataclass(frozen=True)
+class Derived:
+  """A field computed after the overrides: rule(config, scene) -> value.
+  config is the run's config with every value, override and earlier derived
+  field set; scene is the scene's config as its file built it (its facts,
+  before any method or override). A rule reads no protocol field: the
+  protocol is resolved after it (halo_jax/protocol.py)."""
+  rule: Callable[[Config, Config], Any]
+
+
+@dataclasses.dataclass(frozen=True)
+class Edit:
+  """A structural change of the section at the table's key, made with its
+  fields unlocked: fn(section) may add fields (a stage turned into another
+  trainer's). Applied with the values, before the overrides."""
+  fn: Callable[[Config], Any]
+
+
+# One table: dotted field -> value, Edit or Derived, in the order written.
+Table = Mapping[str, Any]
 
 
 @dataclasses.dataclass(frozen=True)
 class Method:
-  """summary: one line for tables and --help; apply: ConfigDict -> ConfigDict
-  (edits and returns its argument); geometries: the ray geometries of the
-  scenes it runs on; dynamic: whether it runs on time-dependent scenes;
-  role: COMPARED (halo-compare's default and the benchmark's suites),
-  REPORTED (the suites only) or "" (run on request)."""
+  """summary: one line for tables and --help; tables: scene kind -> Table
+  (a kind without one is a kind the method does not run on); geometries:
+  the ray geometries of the scenes it runs on; dynamic: whether it runs on
+  time-dependent scenes; role: COMPARED (halo-compare's default and the
+  benchmark's suites), REPORTED (the suites only) or "" (run on request)."""
   summary: str
-  apply: ApplyFn
+  tables: Mapping[str, Table]
   geometries: frozenset = geometry.ALL
   dynamic: bool = True
   role: str = ""
+
+  def table(self, kind: str) -> Dict[str, Any]:
+    return dict(self.tables.get(kind, {}))
 
 
 COMPARED, REPORTED = "compared", "reported"
 
 
-# A method's setting of one field: a value, or a function of the config as
-# edited so far (a setting derived from the scene: its protocol, its sizes).
-Setting = Union[Any, Callable[[Config], Any]]
+def every_kind(table: Table) -> Dict[str, Table]:
+  """The same table on every scene kind."""
+  return {k: dict(table) for k in KINDS}
 
 
-def set_fields(c: Config, table: Mapping[str, Setting]) -> Config:
-  """Writes each dotted field of `table` into c, in the table's order;
-  KeyError naming a field that no config has."""
+def on_top_of(first: Method, tables: Mapping[str, Table]) -> Dict[str, Table]:
+  """`first`'s tables with `tables` (kind -> table) written after them: a
+  field in both takes the later setting."""
+  return {k: {**first.table(k), **tables.get(k, {})} for k in first.tables}
+
+
+def write_values(c: Config, table: Table) -> Tuple[Tuple[str, Derived], ...]:
+  """Writes `table`'s values and edits into c, in order; returns its derived
+  fields, in order, for `write_derived`. KeyError naming a field no config has."""
+  rules = []
   for dotted, value in table.items():
-    frozen.set_field(c, dotted, value(c) if callable(value) else value)
+    if isinstance(value, Derived):
+      frozen.set_field(c, dotted, frozen.get_field(c, dotted))  # names a missing field now
+      rules.append((dotted, value))
+    elif isinstance(value, Edit):
+      section = frozen.get_field(c, dotted)
+      with section.unlocked():
+        value.fn(section)
+    else:
+      frozen.set_field(c, dotted, value)
+  return tuple(rules)
+
+
+def write_derived(c: Config, scene: Config, rules, skip=()) -> Config:
+  """Sets each derived field of `rules` but those in `skip` (the overrides)."""
+  for dotted, derived in rules:
+    if dotted not in skip:
+      frozen.set_field(c, dotted, derived.rule(c, scene))
   return c
-
-
-def on_top_of(first: ApplyFn, table: Mapping[str, Setting]) -> ApplyFn:
-  """A method that is method `first` (its apply) with `table`'s fields set after it."""
-  return lambda c: set_fields(first(c), table)

@@ -20,9 +20,7 @@ OCCLUSION_NUM_NEAR = 20
 TABLE = {"hi.freq_reg.end": FREQ_REG_END, "hi.occlusion.weight": OCCLUSION_WEIGHT,
          "hi.occlusion.num_near": OCCLUSION_NUM_NEAR}
 
-apply = base.on_top_of(nerf_paper.apply, TABLE)
-
-
 METHOD = base.Method("FreeNeRF: the paper's NeRF with a P.E. mask that opens over 90% of "
-                     "training and an occlusion loss", apply, geometries=geometry.SPATIAL,
-                     role=base.COMPARED)
+                     "training and an occlusion loss",
+                     base.on_top_of(nerf_paper.METHOD, base.every_kind(TABLE)),
+                     geometries=geometry.SPATIAL, role=base.COMPARED)

@@ -45,7 +45,7 @@ halo+unseen, halo_auto) applies them first:
   (5e-4 to 5e-5), not the CPU configs' fourfold one, which suits fields
   trained from scratch (the baseline keeps it).
 """
-from halo_jax import datasets, geometry
+from halo_jax import geometry
 from halo_jax.methods import base
 
 EMPTY_WEIGHT = 0.1        # lambda of L_empty
@@ -58,18 +58,19 @@ FULL_FRACTION = 0.25      # share of Hi's samples over the whole ray, ndc scenes
 NDC_LO_SCALE = 1.0        # Lo-NeRF's P.E. scale on NDC coordinates, at every size
 
 
-def _empty_weight(c):
-  return PROTOCOL_EMPTY_WEIGHT.get(c.data.protocol, EMPTY_WEIGHT)
+# data.protocol is the scene's list of views (the paper's 8-view or one-side)
+_empty_weight = base.Derived(
+    lambda c, scene: PROTOCOL_EMPTY_WEIGHT.get(c.data.protocol, EMPTY_WEIGHT))
 
 
 def _on_white(value, field):
   """Lo's foreground start: only where the background is white (photos of a
   room have no background to tell from)."""
-  return lambda c: value if c.data.white_background else c.lo[field]
+  return base.Derived(lambda c, scene: value if c.data.white_background else c.lo[field])
 
 
 # The table above as data: per scene kind, the fields HALO sets on the
-# scene's config, in order (base.Setting). `hi.copy_lo_under_budget` leaves
+# scene's config (base.Table). `hi.copy_lo_under_budget` leaves
 # the start to protocol.resolve, the one reader of the protocol, so the order
 # in which the budget and the method are given does not matter.
 KINDS = {
@@ -90,7 +91,8 @@ KINDS = {
         "hi.empty.weight": 0.0,
         "ray.random_fraction": 0.0,
         "ray.bank_rays": 0,
-        "hi.sampler.num_full": lambda c: int(c.hi.sampler.num_samples * FULL_FRACTION),
+        "hi.sampler.num_full": base.Derived(
+            lambda c, scene: int(c.hi.sampler.num_samples * FULL_FRACTION)),
         "lo.encoding.scale": NDC_LO_SCALE,
         "hi.copy_lo_under_budget": True,
     },
@@ -102,7 +104,7 @@ KINDS = {
         "hi.sampler.kind": "stratified",
         "hi.empty.weight": _empty_weight,
         # the baseline's centre crop, so that the two differ by Lo's help
-        "hi.precrop_steps": lambda c: c.lo.precrop_steps,
+        "hi.precrop_steps": base.Derived(lambda c, scene: c.lo.precrop_steps),
         "hi.lr_init": COPY_LR[0],
         "hi.lr_final": COPY_LR[1],
     },
@@ -112,12 +114,8 @@ KINDS = {
         "hi.empty.weight": 0.0,           # every pixel is the scene: no background
     },
 }
-assert set(KINDS) == {"dynamic"} | {g.value for g in geometry.Geometry}
+assert set(KINDS) == {"dynamic"} | {g.value for g in geometry.Geometry} == set(base.KINDS)
 
 
-def apply(c):
-  return base.set_fields(c, KINDS[datasets.scene_kind(c.data)])
-
-
-METHOD = base.Method("HALO: a low-frequency field guides and regularises Hi-NeRF", apply,
+METHOD = base.Method("HALO: a low-frequency field guides and regularises Hi-NeRF", KINDS,
                      role=base.COMPARED)

@@ -56,7 +56,7 @@ import math
 
 import os
 
-from halo_jax import datasets, defaults, geometry
+from halo_jax import defaults, frozen, geometry
 from halo_jax.methods import base, halo
 
 WINDOW_FINAL = 0.5          # their epi_converge_range: the window's final width share
@@ -68,30 +68,50 @@ KNIGHTS_WINDOW_SHARE = 20000 / 80000
 KNIGHTS_LR_POWER = 1.0
 
 
-def _authors_schedule(stage, power, min_lr=MIN_LR):
+def _authors_schedule(stage: str, power, min_lr=MIN_LR) -> dict:
   """Their Poly rate from the stage's lr_init to `min_lr`, every schedule a
   share of the steps the stage trains (protocol.SPANNED)."""
-  stage.update(lr_power=power, lr_final=min_lr, lr_decay_steps=0, schedule_span="stage")
+  return {f"{stage}.lr_power": power, f"{stage}.lr_final": min_lr,
+          f"{stage}.lr_decay_steps": 0, f"{stage}.schedule_span": "stage"}
 
 
-def two_plane(c):
-  base.set_fields(c, halo.KINDS["two_plane"])
-  hi = c.hi
-  hi.sampler.kind = "joint_blended"
-  # As many fresh random rays as training rays: their sampler draws batch_size
-  # random (u, v, s, t) each step (batch_stanfordlf_dataset.py:155-166) and
-  # never reads render_params.aug_points (epi_nelf_uv_st.py:109).
-  hi.joint.update(full_range=0.5, alpha_final=WINDOW_FINAL, target="expected",
-                  random_rays=hi.batch_rays, color_weight=1.0, nerf_consist_weight=0.0,
-                  field="nelf", num_features=FEATURES,
-                  alpha_steps=max(1, round(KNIGHTS_WINDOW_SHARE * hi.steps)))
-  hi.joint.model.update(width=hi.model.width, depth=hi.model.depth, skips=tuple(hi.model.skips))
-  # theta: their epi_embedder's 5 frequencies
-  hi.fourier.update(st_kind="axis", theta_kind="axis", uv_kind="axis", st_features=FEATURES,
-                    theta_features=5, uv_std=hi.joint.uv_std, uv_features=1, uv_drawn=FEATURES)
-  hi.model.update(density_activation="relu", density_bias=0.0, color_width=hi.model.width)
-  hi.density_noise = 1.0
-  _authors_schedule(hi, KNIGHTS_LR_POWER)
+def _share(share: float, stage: str = "hi"):
+  """A step count that is `share` of the steps `stage` trains."""
+  return base.Derived(lambda c, scene: max(1, round(share * c[stage].steps)))
+
+
+def _same_as(dotted: str):
+  return base.Derived(lambda c, scene: frozen.get_field(c, dotted))
+
+
+# The ray field as large as the radiance field.
+_JOINT_MODEL_AS_HI = {"hi.joint.model.width": _same_as("hi.model.width"),
+                      "hi.joint.model.depth": _same_as("hi.model.depth"),
+                      "hi.joint.model.skips": base.Derived(lambda c, scene: tuple(c.hi.model.skips))}
+
+TWO_PLANE = {
+    **halo.KINDS["two_plane"],
+    "hi.sampler.kind": "joint_blended",
+    # As many fresh random rays as training rays: their sampler draws batch_size
+    # random (u, v, s, t) each step (batch_stanfordlf_dataset.py:155-166) and
+    # never reads render_params.aug_points (epi_nelf_uv_st.py:109).
+    "hi.joint.full_range": 0.5, "hi.joint.alpha_final": WINDOW_FINAL,
+    "hi.joint.target": "expected", "hi.joint.color_weight": 1.0,
+    "hi.joint.nerf_consist_weight": 0.0, "hi.joint.field": "nelf",
+    "hi.joint.num_features": FEATURES,
+    # theta: their epi_embedder's 5 frequencies
+    "hi.fourier.st_kind": "axis", "hi.fourier.theta_kind": "axis", "hi.fourier.uv_kind": "axis",
+    "hi.fourier.st_features": FEATURES, "hi.fourier.theta_features": 5,
+    "hi.fourier.uv_features": 1, "hi.fourier.uv_drawn": FEATURES,
+    "hi.model.density_activation": "relu", "hi.model.density_bias": 0.0,
+    "hi.density_noise": 1.0,
+    **_authors_schedule("hi", KNIGHTS_LR_POWER),
+    "hi.joint.random_rays": _same_as("hi.batch_rays"),
+    "hi.joint.alpha_steps": _share(KNIGHTS_WINDOW_SHARE),
+    **_JOINT_MODEL_AS_HI,
+    "hi.fourier.uv_std": _same_as("hi.joint.uv_std"),
+    "hi.model.color_width": _same_as("hi.model.width"),
+}
 
 
 # LLFF (their epi_nelf_sparse_llff_trex.py)
@@ -107,31 +127,35 @@ LLFF_ITERATIONS = 100 * 5 * (4 * 504 * 378 // 3072)
 LLFF_WINDOW_SHARE = 12000 / LLFF_ITERATIONS
 LLFF_LR_POWER = 2.0
 
-
-def ndc(c):
-  """LLFF as their joint light field on two planes (replaces the NDC pipeline)."""
-  c.data.kind = "llff_planes"
-  c.stages = "hi"
-  hi = c.hi
-  with hi.unlocked():  # the scene config is locked; the light-field stage adds fields
-    defaults.light_field_stage(hi)
-  hi.random_background = True    # their EPINeLFRays' background='random'
-  hi.precrop_steps = 0
-  hi.empty.weight = 0.0
-  hi.sampler.kind = "joint_blended_even"
-  hi.joint.update(full_range=0.0, alpha_final=LLFF_WINDOW_FINAL,
-                  alpha_steps=max(1, round(LLFF_WINDOW_SHARE * hi.steps)),
-                  target="max_weight", random_rays=hi.batch_rays, color_weight=1.0,
-                  nerf_consist_weight=0.0, field="nelf", num_features=FEATURES,
-                  uv_kind="axis", uv_std=LLFF_UV_STD, st_kind="octaves", std=LLFF_ST_SCALE,
-                  color_uv=False, random_full=True)
-  hi.joint.model.update(width=hi.model.width, depth=hi.model.depth, skips=tuple(hi.model.skips))
-  hi.fourier.update(st_kind="octaves", st_std=LLFF_ST_SCALE, st_features=FEATURES,
-                    theta_kind="octaves", theta_std=LLFF_DEPTH_SCALE, theta_features=FEATURES,
-                    uv_kind="axis", uv_std=LLFF_UV_STD, uv_features=1, uv_drawn=FEATURES)
-  hi.model.update(density_activation="relu", density_bias=0.0, color_width=hi.model.width)
-  hi.density_noise = 1.0
-  _authors_schedule(hi, LLFF_LR_POWER)
+# LLFF as their joint light field on two planes (replaces the NDC pipeline):
+# the same files read as rays between two planes.
+NDC = {
+    "data.kind": "llff_planes",
+    "stages": "hi",
+    "hi": base.Edit(defaults.light_field_stage),
+    "hi.random_background": True,    # their EPINeLFRays' background='random'
+    "hi.precrop_steps": 0,
+    "hi.empty.weight": 0.0,
+    "hi.sampler.kind": "joint_blended_even",
+    "hi.joint.full_range": 0.0, "hi.joint.alpha_final": LLFF_WINDOW_FINAL,
+    "hi.joint.target": "max_weight", "hi.joint.color_weight": 1.0,
+    "hi.joint.nerf_consist_weight": 0.0, "hi.joint.field": "nelf",
+    "hi.joint.num_features": FEATURES, "hi.joint.uv_kind": "axis",
+    "hi.joint.uv_std": LLFF_UV_STD, "hi.joint.st_kind": "octaves", "hi.joint.std": LLFF_ST_SCALE,
+    "hi.joint.color_uv": False, "hi.joint.random_full": True,
+    "hi.fourier.st_kind": "octaves", "hi.fourier.st_std": LLFF_ST_SCALE,
+    "hi.fourier.st_features": FEATURES, "hi.fourier.theta_kind": "octaves",
+    "hi.fourier.theta_std": LLFF_DEPTH_SCALE, "hi.fourier.theta_features": FEATURES,
+    "hi.fourier.uv_kind": "axis", "hi.fourier.uv_std": LLFF_UV_STD,
+    "hi.fourier.uv_features": 1, "hi.fourier.uv_drawn": FEATURES,
+    "hi.model.density_activation": "relu", "hi.model.density_bias": 0.0,
+    "hi.density_noise": 1.0,
+    **_authors_schedule("hi", LLFF_LR_POWER),
+    "hi.joint.alpha_steps": _share(LLFF_WINDOW_SHARE),
+    "hi.joint.random_rays": _same_as("hi.batch_rays"),
+    **_JOINT_MODEL_AS_HI,
+    "hi.model.color_width": _same_as("hi.model.width"),
+}
 
 
 # 360-degree scenes
@@ -148,7 +172,8 @@ LOADED_FROM_LO = ("lego", "hotdog")   # Hi from Lo's weights at LOADED_RATE, pow
 # base rate times their 10x gain diverged on lego (2.8 dB at 240 s).
 LOADED_RATE = 5e-3
 POWER_ONE = ("lego", "hotdog", "chair")
-# their one-side schedule (a budgeted config keeps its own caps)
+# Their one-side schedule, on the paper-size config (a CPU-sized config keeps
+# its own caps: defaults.cpu_sized)
 ONE_SIDE_STEPS = {"lo": 4200, "ray": 42000, "hi": 28000}
 # Their Lo-NeRF, configs/nelf_nerf_synthetic_hotdog_sparse_lfnerf.py, which
 # scripts/lf_hf_nerf_8view_gpu.py:29-35 launches as it stands and
@@ -165,61 +190,79 @@ LO_ITERATIONS = 10 * 100 * 8
 ONE_SIDE_LO_ITERATIONS = 3 * 100 * 14
 
 
-def _authors_lo(lo, one_side: bool):
-  """Their Lo-NeRF's recipe, every schedule a share of the steps Lo trains
-  (the P.E. stays the scene config's: s = 32 at paper size as theirs, s = 1
-  on CPU, as their one-side run)."""
-  lo.model.use_viewdirs = False
-  lo.density_noise = LO_NOISE
-  iterations = ONE_SIDE_LO_ITERATIONS if one_side else LO_ITERATIONS
-  lo.update(precrop_frac=LO_CROP_FRAC,
-            precrop_steps=max(1, round(LO_CROP_ITERATIONS / iterations * lo.steps)))
-  _authors_schedule(lo, LO_LR_POWER, LO_MIN_LR)
-
-
 def _scene_name(c) -> str:
   return os.path.basename(str(c.data.root).rstrip("/"))
 
 
-def sphere(c):
-  c.stages = "lo,ray,hi"
-  # their compositing (render_utils.py:18-28): ReLU density, a 2e10 last
-  # interval; the depth target the argmax of those weights (:82)
-  for stage in (c.lo, c.hi):
-    stage.model.update(density_activation="relu", density_bias=0.0)
-  c.ray.depth_target = "max_weight_open_end"
-  # nelf_nerf360.py:162-164: the ray field's opacity loss (nelf_occ_loss,
-  # weight consist_loss_weight = 1) on the training rays; :198, its term on
-  # the random rays, is commented out, and :197 keeps their depth term
-  c.ray.update(acc_weight=1.0, random_acc=False)
-  hi, scene = c.hi, _scene_name(c)
-  one_side = c.data.protocol == "lego_oneside"
-  if one_side and not c.budget_s:
-    for stage, steps in ONE_SIDE_STEPS.items():
-      c[stage].steps = steps
-  _authors_lo(c.lo, one_side)
-  paper_steps = ONE_SIDE_STEPS["hi"] if one_side else PAPER_HI_STEPS
-  share = lambda n: max(1, round(n * hi.steps / paper_steps)) if n else 0
-  hi.sampler.update(kind="depth_guided", near_only=True)
-  hi.model.use_viewdirs = False
-  hi.precrop_steps = share(HI_CROP_STEPS)
-  hi.empty.update(weight=halo.PROTOCOL_EMPTY_WEIGHT.get(c.data.protocol, halo.EMPTY_WEIGHT),
-                  density_noise=1.0, num_samples=hi.sampler.num_samples,
-                  start_step=share(EMPTY_START if one_side
-                                   else EMPTY_START_8VIEW.get(scene, EMPTY_START)))
-  hi.encoding.with_lo = False
-  if scene in LOADED_FROM_LO or one_side:
-    hi.update(init_from_lo=True, init_skip_fresh=True, lr_init=LOADED_RATE)
-  _authors_schedule(hi, 1.0 if scene in POWER_ONE else LR_POWER)
+def _one_side(c) -> bool:
+  return c.data.protocol == "lego_oneside"
 
 
-KINDS = {"two_plane": two_plane, "ndc": ndc, "sphere": sphere}
+def _per_scene(rule):
+  """A derived field of the scene's name and views (their per-scene settings)."""
+  return base.Derived(lambda c, scene: rule(_scene_name(c), _one_side(c), c))
 
 
-def apply(c):
-  KINDS[datasets.scene_kind(c.data)](c)   # the method's geometries keep it to these kinds
-  return c
+def _steps(stage):
+  """Their one-side step counts on a paper-size config; the config's otherwise."""
+  return base.Derived(lambda c, scene: ONE_SIDE_STEPS[stage]
+                      if _one_side(c) and c.sizing == "paper" else c[stage].steps)
 
 
-METHOD = base.Method("HALO as the authors' code runs it (static scenes)", apply,
+def _hi_share(n_of):
+  """Their Hi step count n (of their 80k, or 28k one-side) as a share of the
+  steps Hi trains."""
+  def rule(name, one_side, c):
+    n = n_of(name, one_side)
+    paper_steps = ONE_SIDE_STEPS["hi"] if one_side else PAPER_HI_STEPS
+    return max(1, round(n * c.hi.steps / paper_steps)) if n else 0
+  return _per_scene(rule)
+
+
+SPHERE = {
+    "stages": "lo,ray,hi",
+    # their compositing (render_utils.py:18-28): ReLU density, a 2e10 last
+    # interval; the depth target the argmax of those weights (:82)
+    "lo.model.density_activation": "relu", "lo.model.density_bias": 0.0,
+    "hi.model.density_activation": "relu", "hi.model.density_bias": 0.0,
+    "ray.depth_target": "max_weight_open_end",
+    # nelf_nerf360.py:162-164: the ray field's opacity loss (nelf_occ_loss,
+    # weight consist_loss_weight = 1) on the training rays; :198, its term on
+    # the random rays, is commented out, and :197 keeps their depth term
+    "ray.acc_weight": 1.0, "ray.random_acc": False,
+    **{f"{n}.steps": _steps(n) for n in ("lo", "ray", "hi")},
+    # their Lo-NeRF's recipe, every schedule a share of the steps Lo trains
+    # (the P.E. stays the scene config's: s = 32 at paper size as theirs,
+    # s = 1 on CPU, as their one-side run)
+    "lo.model.use_viewdirs": False,
+    "lo.density_noise": LO_NOISE,
+    "lo.precrop_frac": LO_CROP_FRAC,
+    "lo.precrop_steps": _per_scene(lambda name, one_side, c: max(1, round(
+        LO_CROP_ITERATIONS / (ONE_SIDE_LO_ITERATIONS if one_side else LO_ITERATIONS)
+        * c.lo.steps))),
+    **_authors_schedule("lo", LO_LR_POWER, LO_MIN_LR),
+    "hi.sampler.kind": "depth_guided", "hi.sampler.near_only": True,
+    "hi.model.use_viewdirs": False,
+    "hi.precrop_steps": _hi_share(lambda name, one_side: HI_CROP_STEPS),
+    "hi.empty.weight": _per_scene(lambda name, one_side, c: halo.PROTOCOL_EMPTY_WEIGHT.get(
+        c.data.protocol, halo.EMPTY_WEIGHT)),
+    "hi.empty.density_noise": 1.0,
+    "hi.empty.num_samples": _same_as("hi.sampler.num_samples"),
+    "hi.empty.start_step": _hi_share(lambda name, one_side: EMPTY_START if one_side
+                                     else EMPTY_START_8VIEW.get(name, EMPTY_START)),
+    "hi.encoding.with_lo": False,
+    # lego and hotdog, and the one-side protocol, start Hi from Lo's weights
+    "hi.init_from_lo": _per_scene(lambda name, one_side, c: True
+                                  if name in LOADED_FROM_LO or one_side else c.hi.init_from_lo),
+    "hi.init_skip_fresh": _per_scene(lambda name, one_side, c: True if name in LOADED_FROM_LO
+                                     or one_side else c.hi.init_skip_fresh),
+    "hi.lr_init": _per_scene(lambda name, one_side, c: LOADED_RATE
+                             if name in LOADED_FROM_LO or one_side else c.hi.lr_init),
+    **_authors_schedule("hi", LR_POWER),
+    "hi.lr_power": _per_scene(lambda name, one_side, c: 1.0 if name in POWER_ONE else LR_POWER),
+}
+
+
+METHOD = base.Method("HALO as the authors' code runs it (static scenes)",
+                     {"two_plane": TWO_PLANE, "ndc": NDC, "sphere": SPHERE},
                      geometries=geometry.ALL, dynamic=False)

@@ -6,5 +6,5 @@ from halo_jax.methods import base, halo
 
 
 METHOD = base.Method("HALO, Lo-NeRF's frequency chosen by the frequency rule",
-                     base.on_top_of(halo.apply, {"lo.encoding.auto": True}),
+                     base.on_top_of(halo.METHOD, base.every_kind({"lo.encoding.auto": True})),
                      geometries=geometry.SPATIAL)

@@ -12,4 +12,4 @@ from halo_jax.methods import base, freenerf, halo
 TABLE = {"hi.freq_reg.end": freenerf.FREQ_REG_END}
 
 METHOD = base.Method("HALO with FreeNeRF's P.E. schedule on Hi-NeRF",
-                     base.on_top_of(halo.apply, TABLE), role=base.COMPARED)
+                     base.on_top_of(halo.METHOD, base.every_kind(TABLE)), role=base.COMPARED)

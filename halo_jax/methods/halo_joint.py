@@ -10,8 +10,9 @@ from halo_jax.methods import base, halo
 
 
 TABLE = {"stages": "lo,hi", "hi.sampler.kind": "joint",
-         "hi.joint.alpha_final": lambda c: c.hi.sampler.window}
+         "hi.joint.alpha_final": base.Derived(lambda c, scene: c.hi.sampler.window)}
 
 METHOD = base.Method("HALO's joint scheme: the ray field trained with Hi-NeRF",
-                     base.on_top_of(halo.apply, TABLE), geometries=geometry.SPATIAL,
+                     base.on_top_of(halo.METHOD, base.every_kind(TABLE)),
+                     geometries=geometry.SPATIAL,
                      dynamic=False)

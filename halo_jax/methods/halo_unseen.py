@@ -9,20 +9,13 @@ the fog beside those points (docs/results/ablation_fog.md). Only where held-out 
 rays); on forward-facing and light-field scenes every point a test view sees
 is in a training frustum, and the method is HALO unchanged.
 """
-from halo_jax import datasets, geometry
 from halo_jax.methods import base, halo
 
 WEIGHT = 0.01
 
-
-def apply(c):
-  halo.apply(c)
-  if datasets.spec_of(c.data).geometry == geometry.Geometry.SPHERE:
-    for name in ("lo", "hi"):
-      if c[name].kind == "radiance":
-        c[name].unseen.weight = WEIGHT
-  return c
-
+# Sphere rays: the 360-degree scenes, static ('sphere') and in time ('dynamic').
+_TERM = {"lo.unseen.weight": WEIGHT, "hi.unseen.weight": WEIGHT}
 
 METHOD = base.Method("HALO with L_unseen: Lo and Hi kept empty where no training camera looks",
-                     apply, role=base.REPORTED)
+                     base.on_top_of(halo.METHOD, {"sphere": _TERM, "dynamic": _TERM}),
+                     role=base.REPORTED)

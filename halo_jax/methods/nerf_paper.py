@@ -11,20 +11,21 @@ L_rec weighted 1. The model width and depth are the scene config's (the
 paper's 8x256 in the full protocols, the CPU size in *_cpu ones), so that
 the comparison is of the method, not of the model size.
 """
-from halo_jax import datasets, geometry
+from halo_jax import geometry
 from halo_jax.methods import base, nerf_tuned
 
 RAYS_PER_STEP = 1024
 
 
-def _microbatches(c):
-  """~4x nerf_tuned's samples per ray: 4x the parts keeps each part's
-  activations the same size (CPU cache; see defaults.cpu_sized)."""
-  m = c.hi.microbatches
+def _microbatches(c, scene):
+  """~4x nerf_tuned's samples per ray: 4x nerf_tuned's parts keeps each
+  part's activations the same size (CPU cache; see defaults.cpu_sized)."""
+  m = nerf_tuned.parts_for(scene, c.baseline.num_samples, scene.hi.batch_rays)
   return min(4 * m, RAYS_PER_STEP // 16) if m > 1 else m
 
 
-TABLE = {
+def _table(density_noise: float):
+  return {
     "hi.sampler.kind": "coarse_fine",
     "hi.sampler.num_coarse": 64,
     "hi.sampler.num_samples": 128,
@@ -33,8 +34,7 @@ TABLE = {
     "hi.model.density_activation": "relu",
     "hi.model.density_bias": 0.0,
     "hi.model.use_viewdirs": True,
-    "hi.density_noise": lambda c: (1.0 if datasets.spec_of(c.data).geometry
-                                   == geometry.Geometry.NDC else 0.0),
+    "hi.density_noise": density_noise,
     "hi.batch_rays": RAYS_PER_STEP,
     "hi.one_image": True,
     "hi.precrop_steps": 500,
@@ -42,11 +42,13 @@ TABLE = {
     "hi.lr_init": 5e-4,
     "hi.lr_final": 5e-5,
     "hi.lr_decay_steps": 500000,
-    "hi.microbatches": _microbatches,
+    "hi.microbatches": base.Derived(_microbatches),
 }
 
-apply = base.on_top_of(nerf_tuned.apply, TABLE)   # nerf_tuned's Hi-NeRF alone, then TABLE
 
+# nerf_tuned's Hi-NeRF alone, then these; density noise on forward-facing scenes only
+TABLES = base.on_top_of(nerf_tuned.METHOD, {k: _table(1.0 if k == "ndc" else 0.0)
+                                            for k in base.KINDS})
 
 METHOD = base.Method("NeRF as published: coarse + fine MLPs, ReLU density, one image a step",
-                     apply, geometries=geometry.SPATIAL, role=base.COMPARED)
+                     TABLES, geometries=geometry.SPATIAL, role=base.COMPARED)

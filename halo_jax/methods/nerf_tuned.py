@@ -9,25 +9,22 @@ collapses with few views.
 from halo_jax.methods import base
 
 
-def _microbatches(c):
-  """Keeps the samples in each micro-batch (its cache footprint) as the
-  scene's Hi-NeRF has them, with the baseline's sample count."""
-  parts = c.hi.microbatches * c.baseline.num_samples // c.hi.sampler.num_samples
-  return parts if parts > 1 and c.hi.batch_rays % parts == 0 else c.hi.microbatches
+def parts_for(scene, samples: int, batch_rays: int) -> int:
+  """The micro-batches that keep each part's samples (its cache footprint)
+  as the scene's Hi-NeRF has them, at `samples` a ray."""
+  parts = scene.hi.microbatches * samples // scene.hi.sampler.num_samples
+  return parts if parts > 1 and batch_rays % parts == 0 else scene.hi.microbatches
 
 
 TABLE = {
     "stages": "hi",
     "hi.sampler.kind": "stratified",
-    "hi.microbatches": _microbatches,     # before the count it reads changes
-    "hi.sampler.num_samples": lambda c: c.baseline.num_samples,
-    "hi.precrop_steps": lambda c: c.lo.precrop_steps,
+    "hi.sampler.num_samples": base.Derived(lambda c, scene: c.baseline.num_samples),
+    "hi.microbatches": base.Derived(
+        lambda c, scene: parts_for(scene, c.hi.sampler.num_samples, c.hi.batch_rays)),
+    "hi.precrop_steps": base.Derived(lambda c, scene: c.lo.precrop_steps),
 }
 
 
-def apply(c):
-  return base.set_fields(c, TABLE)
-
-
-METHOD = base.Method("NeRF, one MLP, stratified samples, softplus density, noise 1.0", apply,
-                     role=base.COMPARED)
+METHOD = base.Method("NeRF, one MLP, stratified samples, softplus density, noise 1.0",
+                     base.every_kind(TABLE), role=base.COMPARED)
