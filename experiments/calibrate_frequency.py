@@ -1,9 +1,4 @@
-"""`python experiments/calibrate_frequency.py`: experiments/bench/calibrate_frequency.py run from a clone."""
-import os
-import sys
-
-# run as a script from a clone: its root on the path, for the experiments package
-sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+"""`python -m experiments.calibrate_frequency`: experiments/bench/calibrate_frequency.py run from a clone."""
 from experiments.bench import calibrate_frequency
 
 if __name__ == "__main__":

@@ -19,7 +19,7 @@ samples). This script measures, in one process, what bounds them:
 Each figure is the median of --repeats timed calls after a warm-up, reported
 as ms and as TFLOP/s against the measured peak. Writes --out (JSON).
 
-  python experiments/dense_bench.py --points=393216 --out=/tmp/dense.json
+  python -m experiments.dense_bench --points=393216 --out=/tmp/dense.json
 """
 import functools
 import json

@@ -1,9 +1,4 @@
-"""`python experiments/gpu_report.py`: experiments/bench/gpu_report.py run from a clone."""
-import os
-import sys
-
-# run as a script from a clone: its root on the path, for the experiments package
-sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+"""`python -m experiments.gpu_report`: experiments/bench/gpu_report.py run from a clone."""
 from experiments.bench import gpu_report
 
 if __name__ == "__main__":

@@ -20,7 +20,7 @@ export PYTHONPATH="$PWD${PYTHONPATH:+:$PYTHONPATH}"
 tmp=$(mktemp -d)
 for run in "${configs[@]}"; do
   read -ra args <<< "$run"
-  timeout 150 $py experiments/throughput.py --config="${args[0]}" --peak_n=8192 --results="$tmp" \
+  timeout 150 $py -m experiments.throughput --config="${args[0]}" --peak_n=8192 --results="$tmp" \
       "${args[@]:1}" \
       2>&1 | grep -v "^[IW][0-9]" | tail -n 8
 done

@@ -2,7 +2,7 @@
 scene rendered from cameras all round, written as photos alone (no poses),
 as a phone or a camera would leave them.
 
-  python experiments/make_capture.py --out=/tmp/photos      # ~5 s
+  python -m experiments.make_capture --out=/tmp/photos      # ~5 s
   halo-train --config=capture.py:8view_cpu --config.data.root=/tmp/photos --workdir=/tmp/run
 
 halo-train then runs structure-from-motion on them first (pycolmap).

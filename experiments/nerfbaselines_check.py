@@ -5,7 +5,7 @@ nerfbaselines pins numpy below 2, so it lives in a venv of its own:
 
   python3 -m venv /tmp/nbvenv && /tmp/nbvenv/bin/pip install nerfbaselines
   halo-eval --workdir=RUN --out=PRED
-  /tmp/nbvenv/bin/python experiments/nerfbaselines_check.py PRED OUT.json
+  /tmp/nbvenv/bin/python -m experiments.nerfbaselines_check PRED OUT.json
 
 It runs `nerfbaselines evaluate` on PRED unchanged. Its protocol also scores
 LPIPS, whose AlexNet / VGG backbones torchvision downloads at first use; where
@@ -96,4 +96,9 @@ def main(pred, out):
 
 
 if __name__ == "__main__":
-  main(*sys.argv[1:3])
+  if set(sys.argv[1:]) & {"-h", "--help", "--helpfull"}:
+    print(__doc__)
+  elif len(sys.argv) != 3:
+    sys.exit("usage: python -m experiments.nerfbaselines_check PRED OUT.json (--help: more)")
+  else:
+    main(*sys.argv[1:3])

@@ -13,7 +13,7 @@ offset being the reference seconds of the stages before it. This rewrites
 `curve_clock: "reference"`; records already marked, or whose workdir is
 gone, are left as they are and listed.
 
-  python experiments/reference_curves.py --results=results/cpu/budget --scratch=/tmp/halo_bench
+  python -m experiments.reference_curves --results=results/cpu/budget --scratch=/tmp/halo_bench
 """
 import glob
 import json

@@ -11,8 +11,8 @@ older rule.
   curve. They become 'unjudged', and the old words move to
   `learned_older_rule` with the commit that judged them.
 
-  python experiments/rejudge.py            # rewrites the files that change
-  python experiments/rejudge.py --dry_run  # says what would change
+  python -m experiments.rejudge            # rewrites the files that change
+  python -m experiments.rejudge --dry_run  # says what would change
 """
 import glob
 import json
@@ -24,8 +24,6 @@ from absl import app, flags
 import ml_collections
 
 from halo_jax import datasets
-# run as a script from a clone: its root on the path, for the experiments package
-sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 from experiments.bench import run_file
 from experiments.bench.paths import REPO
 from halo_jax.stages import collapse

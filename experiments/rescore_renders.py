@@ -1,6 +1,6 @@
 """LPIPS (and 8-bit PSNR / SSIM) of a compare workdir's saved renders.
 
-  python experiments/rescore_renders.py --workdir=DIR [--data_root=PATH]
+  python -m experiments.rescore_renders --workdir=DIR [--data_root=PATH]
 
 For runs made where LPIPS could not be computed (on the GPU machine the VGG
 weights do not travel; docs/gpu.md): reads each method's held-out renders,

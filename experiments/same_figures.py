@@ -4,7 +4,7 @@ Under the 'budget' protocol the first two must train the same steps and give
 the same figures; the third shows what XLA's thread count changes (its CPU
 reductions split by thread count, so the last bits of every sum can move).
 
-  python experiments/same_figures.py --scene=lego_8view --method=nerf_tuned \
+  python -m experiments.same_figures --scene=lego_8view --method=nerf_tuned \
       --out=results/same_figures/lego_8view_nerf_tuned.json
 
 Each way runs in its own process (the core and XLA's threads are fixed before
@@ -23,8 +23,6 @@ import time
 
 from absl import app, flags
 
-# run as a script from a clone: its root on the path, for the experiments package
-sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 
 FLAGS = flags.FLAGS
 flags.DEFINE_string("scene", "lego_8view", "a CPU-suite scene")
@@ -85,9 +83,11 @@ def main(argv):
       busy.start()
     with tempfile.NamedTemporaryFile(suffix=".json") as tmp:
       start = time.time()
-      subprocess.run([sys.executable, __file__, f"--child={way}", f"--child_out={tmp.name}",
+      subprocess.run([sys.executable, "-m", "experiments.same_figures", f"--child={way}",
+                      f"--child_out={tmp.name}",
                       f"--scene={FLAGS.scene}", f"--method={FLAGS.method}",
-                      f"--seed={FLAGS.seed}"], check=True)
+                      f"--seed={FLAGS.seed}"], check=True,
+                     cwd=os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
       with open(tmp.name) as f:
         result["ways"][way] = dict(json.load(f), run_s=round(time.time() - start, 1))
     if busy is not None:

@@ -11,9 +11,9 @@ before and after it and comparing the two files: every logged loss, every
 held-out figure and every step count should agree to the last digit, or
 (where the change reorders floating-point sums) within --tolerance_db.
 
-  python experiments/same_numbers.py --out=/tmp/before.json
+  python -m experiments.same_numbers --out=/tmp/before.json
   ... change the code ...
-  python experiments/same_numbers.py --out=/tmp/after.json --compare=/tmp/before.json
+  python -m experiments.same_numbers --out=/tmp/after.json --compare=/tmp/before.json
 
 The same runs fingerprint the code (experiments/bench/code_version.py): --record
 stores each method's fingerprint, the hash of its runs' figures, in
@@ -23,8 +23,8 @@ that commit's own script, fingerprint runs and library (commits from the
 benchmark's move to experiments/bench on; an older one is measured by running
 its own script in a worktree of it with --record there):
 
-  python experiments/same_numbers.py --out=/tmp/head.json --record
-  python experiments/same_numbers.py --out=/tmp/old.json --record --commit=1f8ac84
+  python -m experiments.same_numbers --out=/tmp/head.json --record
+  python -m experiments.same_numbers --out=/tmp/old.json --record --commit=1f8ac84
 
 The runs use one thread on one core (set at the top of this script): XLA
 splits its CPU reductions by thread count, and the last bits of a figure
@@ -56,8 +56,6 @@ os.environ["XLA_FLAGS"] = (os.environ.get("XLA_FLAGS", "")
 from absl import app, flags, logging  # noqa: E402
 
 from halo_jax import datasets, defaults, pipeline, progress  # noqa: E402
-# run as a script from a clone: its root on the path, for the experiments package
-sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 from experiments.bench import code_version, fingerprint, git_state, suites  # noqa: E402
 from halo_jax.stages import collapse  # noqa: E402
 
@@ -178,8 +176,9 @@ def run_shards() -> dict:
     args = [a for a in sys.argv[1:] if not a.startswith(("--procs", "--shard", "--record",
                                                          "--compare", "--out"))]
     env = dict(os.environ, SAME_NUMBERS_CORE=str(i))
-    procs.append(subprocess.Popen([sys.executable, __file__, f"--out={FLAGS.out}.{i}",
-                                   f"--shard={i}/{FLAGS.procs}", *args], env=env))
+    procs.append(subprocess.Popen([sys.executable, "-m", "experiments.same_numbers",
+                                   f"--out={FLAGS.out}.{i}", f"--shard={i}/{FLAGS.procs}", *args],
+                                  env=env, cwd=code_version.REPO))
   if any(p.wait() for p in procs):
     sys.exit("error: a shard failed (its output is above); rerun to resume it")
   results = {}

@@ -1,6 +1,6 @@
 """Prints the stability table: every stiff case against its reference.
 
-  python experiments/stability.py [--out=DIR]
+  python -m experiments.stability [--out=DIR]
 
 Each row is one quantity of one case (experiments/bench/stability_cases.py): its largest
 error against a closed form or a float64 numpy reference, the tolerance, and
@@ -14,8 +14,6 @@ import sys
 
 from absl import app, flags
 
-# run as a script from a clone: its root on the path, for the experiments package
-sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 from experiments.bench import stability_cases as stability
 
 flags.DEFINE_string("out", "", "folder for stability.json / stability.md (optional)")

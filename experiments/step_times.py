@@ -1,9 +1,4 @@
-"""`python experiments/step_times.py`: experiments/bench/step_times.py run from a clone."""
-import os
-import sys
-
-# run as a script from a clone: its root on the path, for the experiments package
-sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+"""`python -m experiments.step_times`: experiments/bench/step_times.py run from a clone."""
 from experiments.bench import step_times
 
 if __name__ == "__main__":

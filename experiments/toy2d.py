@@ -1,6 +1,6 @@
 """The 2D toy of HALO's figure 2: low- vs high-frequency fields on images.
 
-  python experiments/toy2d.py --workdir=DIR [--steps=3000] [--seeds=3]
+  python -m experiments.toy2d --workdir=DIR [--steps=3000] [--seeds=3]
 
 A field maps a pixel coordinate (in pixels of the 64x64 training grid) through
 P.E. gamma(p; L, s) and an MLP to a colour. Lo: L=5, s=5; Hi: L=10, s=5 (the

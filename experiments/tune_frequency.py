@@ -1,6 +1,6 @@
 """Chooses Lo-NeRF's P.E. frequency (L, s) with the frequency criterion.
 
-  python experiments/tune_frequency.py --config=configs/blender.py:lego_8view_cpu \
+  python -m experiments.tune_frequency --config=configs/blender.py:lego_8view_cpu \
       --workdir=DIR [--full_grid] [--config.tune.grid=10:1,5:8,5:32] [--config.tune.lo_steps=300]
 
 Trains a short Lo-NeRF per point of `config.tune.grid`, from the highest

@@ -2,7 +2,7 @@
 screenshot of each (docs/images/viewer_<kind>.png) and the time from a camera move
 to the first image and to the settled one (results/viewer_latency.json).
 
-  python experiments/viewer_check.py --runs=/tmp/viewer_runs [--train_s=60]
+  python -m experiments.viewer_check --runs=/tmp/viewer_runs [--train_s=60]
 
 Trains what is missing first (halo, the CPU configs, --train_s each): the
 built-in lattice (360), LLFF fern (forward-facing), D-NeRF hook (dynamic) and
@@ -19,8 +19,6 @@ import time
 from absl import app, flags, logging
 import numpy as np
 
-# run as a script from a clone: its root on the path, for the experiments package
-sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 from experiments.bench import git_state  # noqa: E402
 from halo_jax.cli import view
 

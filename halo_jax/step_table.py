@@ -1,7 +1,7 @@
 """The committed table of step times behind the 'budget' protocol
 (halo_jax/protocol.py): seconds per training step and seconds of set-up work
 (rendering Lo-NeRF's targets or banks) of each stage, measured on one
-reference machine by `python experiments/step_times.py` (experiments/bench/step_times.py).
+reference machine by `python -m experiments.step_times` (experiments/bench/step_times.py).
 
 An entry's key is what sets a step's time, not a scene's name:
 
@@ -12,7 +12,7 @@ the fields that change what a step computes but not how long it takes
 (rates, schedules, caps, logging, weights' values; a term's being on or off
 stays in). A new scene of a known kind and size (chair beside lego) finds
 lego's entry; a change of batch, samples, width or sampler makes a new key,
-which `python experiments/step_times.py` measures (until then, runs of it measure themselves).
+which `python -m experiments.step_times` measures (until then, runs of it measure themselves).
 The ray field's set-up renders Lo-NeRF's targets for every training pixel up
 to `target_rays`, so its key also holds the number of training views.
 """

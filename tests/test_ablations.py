@@ -64,7 +64,7 @@ def test_report_gives_each_variant_against_the_reference_per_seed(tmp_path):
 
 
 def test_the_command_lists_its_plan_without_running(tmp_path):
-  res = subprocess.run([sys.executable, "experiments/ablations.py", "--study=hi_samples",
+  res = subprocess.run([sys.executable, "-m", "experiments.ablations", "--study=hi_samples",
                         "--dry_run", f"--results={tmp_path}", "--only=lattice/.*/seed0$"],
                        cwd=REPO, capture_output=True, text=True, timeout=120)
   assert res.returncode == 0, res.stderr[-2000:]

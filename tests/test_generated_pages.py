@@ -54,15 +54,15 @@ def test_suite_pages_and_the_readme_block(tmp_path):
     name = report.write_suite(suite, mode, scenes, str(tmp_path), versions[(suite, mode)],
                               plots=False)  # the page's text does not depend on its figures
     _same(os.path.join(DOCS, f"{name}.md"), _read(tmp_path / f"{name}.md"),
-          "python experiments/report.py")
+          "python -m experiments.report")
   budget_line = budget_report.write(suites, str(tmp_path), RESULTS)
   _same(os.path.join(DOCS, f"{budget_report.PAGE}.md"),
-        _read(tmp_path / f"{budget_report.PAGE}.md"), "python experiments/report.py")
+        _read(tmp_path / f"{budget_report.PAGE}.md"), "python -m experiments.report")
   readme = tmp_path / "README.md"
   readme.write_text(_read(os.path.join(REPO, "README.md")))
   assert report.update_readme(str(readme), report.readme_block(suites, str(tmp_path), versions,
                                                                budget_line))
-  _same(os.path.join(REPO, "README.md"), readme.read_text(), "python experiments/report.py")
+  _same(os.path.join(REPO, "README.md"), readme.read_text(), "python -m experiments.report")
 
 
 @pytest.mark.parametrize("name", sorted(ablations.STUDIES))
@@ -72,20 +72,20 @@ def test_study_pages(name):
     assert not os.path.exists(path), f"{path}: a page without result files"
     pytest.skip(f"study {name}: no runs yet")
   _same(path, ablations.report(name, ablations.STUDIES[name], RESULTS),
-        f"python experiments/ablations.py --study={name} --report_only")
+        f"python -m experiments.ablations --study={name} --report_only")
 
 
 def test_gpu_page(tmp_path):
   _same(os.path.join(DOCS, "gpu.md"),
         gpu_report.page(gpu_report.load(os.path.join(RESULTS, "gpu")), str(tmp_path)),
-        "python experiments/gpu_report.py")
+        "python -m experiments.gpu_report")
 
 
 def test_throughput_page():
   _full_history()
   _same(os.path.join(DOCS, "throughput.md"),
         throughput_report.page(throughput_report.load(os.path.join(RESULTS, "throughput"))),
-        "python experiments/throughput_report.py")
+        "python -m experiments.throughput_report")
 
 
 @pytest.mark.parametrize("views", sorted(calibrate_frequency.VIEWS))
@@ -97,20 +97,20 @@ def test_frequency_calibration_pages(views, tmp_path):
     pytest.skip(f"results/{folder}: fewer than 2 scenes")
   text, _ = calibrate_frequency.report(scenes, str(tmp_path), RESULTS, views)
   _same(os.path.join(DOCS, f"{page}.md"), text,
-        f"python experiments/calibrate_frequency.py --views={views} --report_only")
+        f"python -m experiments.calibrate_frequency --views={views} --report_only")
 
 
 def test_method_table_block():
   page = os.path.join(REPO, "docs", "baselines.md")
   _same(page, method_table.splice(_read(page), method_table.generate()),
-        "python experiments/method_table.py")
+        "python -m experiments.method_table")
 
 
 def test_failures_page():
   with open(os.path.join(RESULTS, "faults.json")) as f:
     rows = json.load(f)
   _same(os.path.join(REPO, "docs", "results", "failures.md"), faults.report(rows),
-        "python experiments/faults.py")
+        "python -m experiments.faults")
 
 
 
@@ -119,7 +119,7 @@ def test_viewer_latency_page():
   with open(os.path.join(RESULTS, "viewer_latency.json")) as f:
     record = json.load(f)
   _same(os.path.join(DOCS, "viewer_latency.md"), viewer_check.report(record),
-        "python experiments/viewer_check.py (it re-times the viewer)")
+        "python -m experiments.viewer_check (it re-times the viewer)")
 
 
 def test_the_readme_main_job_table(tmp_path):

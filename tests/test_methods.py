@@ -369,7 +369,7 @@ def test_the_method_table_in_the_docs_is_generated_from_the_configs():
   from experiments.bench import method_table  # pylint: disable=g-import-not-at-top
   page = open(os.path.join(os.path.dirname(__file__), "..", "docs", "baselines.md")).read()
   assert method_table.splice(page, method_table.generate()) == page, (
-      "docs/baselines.md is stale: run python experiments/method_table.py")
+      "docs/baselines.md is stale: run python -m experiments.method_table")
 
 
 def test_the_extending_example_is_one_file_and_one_line(monkeypatch):

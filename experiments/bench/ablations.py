@@ -13,9 +13,9 @@ do not depend on what else the machine is doing, and two run side by side.
 Each record keeps its training seconds, so a variant that makes steps
 dearer shows it.
 
-  python experiments/ablations.py --study=dnerf_hi [--only=REGEX] [--core=0|1]
-  python experiments/ablations.py --study=fog --dry_run
-  python experiments/ablations.py --study=fog --report_only
+  python -m experiments.ablations --study=dnerf_hi [--only=REGEX] [--core=0|1]
+  python -m experiments.ablations --study=fog --dry_run
+  python -m experiments.ablations --study=fog --report_only
 
 A variant whose resolved config is that of a finished suite run (a method
 without overrides on the validation suite's terms) adopts that run's record
@@ -391,7 +391,7 @@ def main(argv):
 
 
 def cli():
-  """The tool's entry point (python experiments/<tool>.py)."""
+  """The tool's entry point (python -m experiments.<tool>)."""
   define_flags()
   tool.run(sys.modules[__name__], main)
 

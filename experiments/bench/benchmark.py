@@ -1,7 +1,7 @@
 """Runs a benchmark suite (experiments/bench/suites.py): every scene x method x seed.
 
-  python experiments/benchmark.py --suite=cpu [--mode=budget|steps] [--only=REGEX]
-  python experiments/benchmark.py --suite=cpu --dry_run      # the plan and what is done
+  python -m experiments.benchmark --suite=cpu [--mode=budget|steps] [--only=REGEX]
+  python -m experiments.benchmark --suite=cpu --dry_run      # the plan and what is done
 
 Mode 'budget' gives every method the suite's budget_s reference seconds (the
 'budget' protocol, halo_jax/protocol.py: split over a method's stages by
@@ -263,7 +263,7 @@ def main(argv):
 
 
 def cli():
-  """The tool's entry point (python experiments/<tool>.py)."""
+  """The tool's entry point (python -m experiments.<tool>)."""
   define_flags()
   tool.run(sys.modules[__name__], main)
 

@@ -278,7 +278,7 @@ def main(argv):
 
 
 def cli():
-  """The tool's entry point (python experiments/<tool>.py)."""
+  """The tool's entry point (python -m experiments.<tool>)."""
   define_flags()
   tool.run(sys.modules[__name__], main)
 

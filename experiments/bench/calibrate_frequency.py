@@ -1,10 +1,10 @@
 """Calibrates the frequency rule's threshold: full grids on every scene, then
 leave-one-scene-out.
 
-  python experiments/calibrate_frequency.py                 # run what is missing, then report
-  python experiments/calibrate_frequency.py --only=lego     # some scenes (regex on the name)
-  python experiments/calibrate_frequency.py --report_only   # tables and figures from the files
-  python experiments/calibrate_frequency.py --views=validation  # the grid scored on validation views
+  python -m experiments.calibrate_frequency                 # run what is missing, then report
+  python -m experiments.calibrate_frequency --only=lego     # some scenes (regex on the name)
+  python -m experiments.calibrate_frequency --report_only   # tables and figures from the files
+  python -m experiments.calibrate_frequency --views=validation  # the grid scored on validation views
 
 For each scene (the CPU suite's scenes that have a Lo-NeRF: experiments/bench/suites.py)
 every point of `tune.grid` trains a short Lo-NeRF (`--lo_steps`), scores rho on
@@ -306,7 +306,7 @@ def main(argv):
 
 
 def cli():
-  """The tool's entry point (python experiments/<tool>.py)."""
+  """The tool's entry point (python -m experiments.<tool>)."""
   define_flags()
   tool.run(sys.modules[__name__], main)
 

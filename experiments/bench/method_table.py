@@ -1,7 +1,7 @@
 """The table of how the methods differ, per scene kind, from their resolved configs.
 
-  python experiments/method_table.py            # rewrites the table in docs/baselines.md
-  python experiments/method_table.py --check    # exit 1 when the page is out of date
+  python -m experiments.method_table            # rewrites the table in docs/baselines.md
+  python -m experiments.method_table --check    # exit 1 when the page is out of date
 
 Each scene kind is represented by its CPU protocol's config. A row is a
 config field whose value differs between methods, among the methods that
@@ -122,7 +122,7 @@ def main(argv):
   new = splice(text, generate())
   if flags.FLAGS.check:
     if new != text:
-      print(f"{page}: the method table is out of date; run python experiments/method_table.py")
+      print(f"{page}: the method table is out of date; run python -m experiments.method_table")
       sys.exit(1)
     print(f"{page}: up to date")
     return
@@ -132,7 +132,7 @@ def main(argv):
 
 
 def cli():
-  """The tool's entry point (python experiments/<tool>.py)."""
+  """The tool's entry point (python -m experiments.<tool>)."""
   tool.run(sys.modules[__name__], main)
 
 

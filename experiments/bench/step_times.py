@@ -1,10 +1,10 @@
 """The step table (halo_jax/step_table.py): the reference seconds behind the
 'budget' protocol, and the command that measures it.
 
-  python experiments/step_times.py --from_records        # the table from the CPU suite's committed runs
-  python experiments/step_times.py                       # measure the keys the suites use that the table lacks
-  python experiments/step_times.py --remeasure           # measure every key again (this machine becomes the reference)
-  python experiments/step_times.py --dry_run             # which keys are there, which are missing
+  python -m experiments.step_times --from_records        # the table from the CPU suite's committed runs
+  python -m experiments.step_times                       # measure the keys the suites use that the table lacks
+  python -m experiments.step_times --remeasure           # measure every key again (this machine becomes the reference)
+  python -m experiments.step_times --dry_run             # which keys are there, which are missing
 
 The reference machine is the one that ran the CPU suite's seeds 0 and 1
 (results/cpu/time, 2026-11-26): `--from_records` takes each key's step time

@@ -1,7 +1,7 @@
 """Training-step throughput of each stage against the machine's measured matmul peak.
 
-  python experiments/throughput.py --config=configs/blender.py:lego_8view_cpu
-  python experiments/throughput_report.py   # docs/results/throughput.md from the files
+  python -m experiments.throughput --config=configs/blender.py:lego_8view_cpu
+  python -m experiments.throughput_report   # docs/results/throughput.md from the files
 
 Measures, in one process: the matmul peak (a large jitted fp32 matmul), then
 for the Lo, ray and Hi training steps and the NeRF baseline step: seconds per
@@ -249,7 +249,7 @@ def write_and_print(results, peak, overrides):
 
 
 def cli():
-  """The tool's entry point (python experiments/<tool>.py)."""
+  """The tool's entry point (python -m experiments.<tool>)."""
   tool.run(sys.modules[__name__], main)
 
 

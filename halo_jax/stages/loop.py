@@ -85,7 +85,7 @@ class _Run:
       budget.write_fixed(self.workdir, self.name, self.last, self.measured_step_s)
       print(f"stage {self.name}: no reference step time for its sizes; "
             f"{self.measured_step_s:.4g} s a step on this machine fixes {self.last} steps for "
-            f"its {cfg.max_seconds:.1f} s (this machine's count: `python experiments/step_times.py` adds the entry)",
+            f"its {cfg.max_seconds:.1f} s (this machine's count: `python -m experiments.step_times` adds the entry)",
             flush=True)
 
   def finish_step(self):
