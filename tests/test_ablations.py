@@ -169,3 +169,27 @@ def test_dynamic_crop_variants_change_only_his_crop(tmp_path):
       assert c.hi.precrop_steps == crop
       c.hi.precrop_steps = halo.hi.precrop_steps
       assert c.to_dict() == halo.to_dict(), variant
+
+
+def test_the_default_rule_checks_each_of_its_clauses():
+  """docs/validation.md's rule: 2 seeds on every scene, no scene's mean
+  worse than 0.3 dB, and a gain on the mean over scenes."""
+  from experiments.bench import ablations, suites
+  from experiments.bench.study_types import Study, Variant
+  scenes = tuple(suites.Scene(n, "configs/procedural.py:spheres_8view_cpu", 2)
+                 for n in ("a", "b", "c"))
+  study = Study("t", "q", scenes, (Variant("ref", "halo"), Variant("new", "halo")), "ref", 2)
+
+  def recs(deltas, seeds=2):
+    out = {}
+    for scene, d in zip(("a", "b", "c"), deltas):
+      out[(scene, "ref")] = [{"scene": scene, "seed": k, "psnr": 20.0} for k in range(seeds)]
+      out[(scene, "new")] = [{"scene": scene, "seed": k, "psnr": 20.0 + d} for k in range(seeds)]
+    return out
+
+  rule = lambda deltas, seeds=2: ablations.default_rule(study, recs(deltas, seeds), "new")  # noqa
+  assert rule((0.2, 0.1, -0.25)) == "passes"                    # a gain, no scene past 0.3
+  assert rule((0.9, 0.5, -0.31)) == "fails: c -0.31"            # one scene loses too much
+  assert rule((0.1, 0.1, -0.25)) == "fails: no gain on the mean (-0.02 dB)"
+  assert rule((0.0, 0.0, 0.0)).startswith("fails: no gain on the mean")
+  assert rule((0.5, 0.5, 0.5), seeds=1) == "not measured: a, b, c"   # fewer than 2 seeds

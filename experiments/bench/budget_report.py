@@ -49,14 +49,19 @@ def lead(by_method):
           - np.mean([r["psnr"] for r in by_method[BASELINE]]))
 
 
-def trend(leads) -> str:
-  """'rises', 'holds' or 'falls': HALO's margin (its lead, negative where it
-  trails) at the largest budget against the smallest, by TREND_DB."""
+def change(leads):
+  """HALO's margin (its lead, negative where it trails) at the largest budget
+  less its margin at the smallest; None with fewer than two budgets."""
   budgets = sorted(b for b, v in leads.items() if v is not None)
-  if len(budgets) < 2:
+  return leads[budgets[-1]] - leads[budgets[0]] if len(budgets) >= 2 else None
+
+
+def trend(leads) -> str:
+  """'rises', 'holds' or 'falls': `change` against TREND_DB."""
+  moved = change(leads)
+  if moved is None:
     return "-"
-  change = leads[budgets[-1]] - leads[budgets[0]]
-  return "rises" if change >= TREND_DB else "falls" if change <= -TREND_DB else "holds"
+  return "rises" if moved >= TREND_DB else "falls" if moved <= -TREND_DB else "holds"
 
 
 # A held-out curve this far under its peak at the end counts as falling.
@@ -263,8 +268,8 @@ def write(all_suites, docs, results="") -> str:
     out += ["## Over scenes", "", f"Mean over {', '.join(scenes)} (each scene weighs the "
             "same) of halo − nerf_tuned: " + ", ".join(
                 f"{means[b]:+.2f} dB at {b:g} s" for b in budgets)
-            + f"; HALO's margin {trend(means)} (by {TREND_DB} dB from {budgets[0]:g} to "
-            f"{budgets[-1]:g} s).", ""]
+            + f"; HALO's margin {trend(means)} ({change(means):+.2f} dB from {budgets[0]:g} "
+            f"to {budgets[-1]:g} s; a move of {TREND_DB} dB or more counts).", ""]
   out += ["## Per scene kind", "", "| kind | scenes | " + " | ".join(
       f"Δ at {b:g} s" for b in budgets) + " | HALO's margin |", "|---|---|" + "---|" * len(budgets)
       + "---|"]
