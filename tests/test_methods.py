@@ -453,3 +453,31 @@ def test_lo_nerf_on_ndc_has_its_own_scale_at_every_size():
   # the 360-degree paper-size scale (the authors' 32) is the scene's, untouched
   assert configure.load("configs/blender.py:lego_8view", "halo").lo.encoding.scale == 32.0
   assert configure.load("configs/llff.py:fern_4view", "nerf_tuned").lo.encoding.scale == 32.0
+
+
+def test_freenerf_mask_is_fully_open_at_90_percent_of_the_steps_a_run_trains():
+  """FreeNeRF's schedule spans the run (their reg_end_ratio 0.9 of it): under
+  a budget, the budget's count; under a stop_at_step, that; else `steps`."""
+  from halo_jax.stages import budget, radiance
+  spec = "configs/blender.py:lego_8view_cpu"
+  runs = {"budget 60 s": configure.compose(spec, "freenerf", protocol=60.0),
+          "budget 960 s": configure.compose(spec, "freenerf", protocol=960.0),
+          "stopped": configure.compose(spec, "freenerf", {"hi.stop_at_step": 300},
+                                       protocol="steps"),
+          "paper": configure.compose("configs/blender.py:lego_8view", "freenerf")}
+  lengths = set()
+  for name, c in runs.items():
+    n = budget.last_step(c.hi)
+    lengths.add(n)
+    assert n < c.hi.steps or name == "paper", name
+    bands = c.hi.encoding.L
+    open_at = lambda step: np.asarray(models.band_weights(  # noqa: E731
+        radiance.band_fraction(c.hi, step), bands, 3))
+    assert open_at(int(np.ceil(0.9 * n))).min() == 1.0, name          # fully open
+    assert open_at(int(0.8 * n)).min() < 1.0, name                    # not before
+    assert float(radiance.band_fraction(c.hi, 0.45 * n)) == pytest.approx(0.5), name
+  assert len(lengths) == 4
+  # halo+freenerf's Hi, started from Lo under a budget, the same
+  both = configure.compose(spec, "halo+freenerf", protocol=240.0)
+  n = budget.last_step(both.hi)
+  assert float(radiance.band_fraction(both.hi, 0.9 * n)) == 1.0 and n == both.hi.budget_steps

@@ -112,10 +112,12 @@ def joint_window(cfg, step):
 
 def band_fraction(cfg, step):
   """FreeNeRF's mask position at `step` (None when the stage has no
-  freq_reg): step / (end * steps), capped at 1."""
+  freq_reg): step / (end * the steps the stage trains), capped at 1. Their
+  schedule spans the run's length (reg_end_ratio of it), so under a budget
+  or a stop_at_step it spans those steps, not the `steps` cap."""
   if "freq_reg" not in cfg or cfg.freq_reg.end <= 0:
     return None
-  return jax.numpy.minimum(step / (cfg.freq_reg.end * cfg.steps), 1.0)
+  return jax.numpy.minimum(step / (cfg.freq_reg.end * budget.last_step(cfg)), 1.0)
 
 
 def loss_fn(params, data: batches.StageData, key, step, part=None, *, s):
