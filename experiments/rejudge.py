@@ -10,6 +10,11 @@ older rule.
   ray field) cannot be re-judged: a record keeps no per-stage training
   curve. They become 'unjudged', and the old words move to
   `learned_older_rule` with the commit that judged them.
+- Every JSON file under results/ is read, whatever its name or layout: a
+  record is a dict with `stages` and `learned`, at the top of a file or
+  under a file's `methods` (a GPU run's). A record without a resolved
+  config keeps its held-out verdict (its views cannot be loaded as it
+  loaded them) and has its training verdicts re-judged.
 
   python -m experiments.rejudge            # rewrites the files that change
   python -m experiments.rejudge --dry_run  # says what would change
@@ -82,8 +87,8 @@ def constant_of(record):
 def rejudge(record) -> dict:
   """The record with today's verdicts (a new dict; the input is not changed)."""
   out = dict(record)
-  rc = record["resolved_config"]
-  constant = constant_of(record)
+  rc = record.get("resolved_config")
+  constant = constant_of(record) if rc else None
   if constant is not None:
     out["heldout_learned"] = {
         n: collapse.heldout(s["psnr"], constant, rc[n]["collapse"]["margin_db"])["verdict"]
@@ -96,28 +101,51 @@ def rejudge(record) -> dict:
   return out
 
 
+def is_record(value) -> bool:
+  return isinstance(value, dict) and "stages" in value and "learned" in value
+
+
+def records_of(content) -> dict:
+  """{where: record} of a result file's content: '' for a record at its top,
+  'methods.<m>' for each record under its `methods`."""
+  if is_record(content):
+    return {"": content}
+  methods = content.get("methods") if isinstance(content, dict) else None
+  if isinstance(methods, dict):
+    return {f"methods.{m}": r for m, r in methods.items() if is_record(r)}
+  return {}
+
+
 def main(argv):
   del argv
-  changed = same = skipped = 0
-  for path in sorted(glob.glob(os.path.join(FLAGS.results, "**", "seed*.json"), recursive=True)):
+  changed = same = 0
+  for path in sorted(glob.glob(os.path.join(FLAGS.results, "**", "*.json"), recursive=True)):
     with open(path) as f:
-      record = json.load(f)
-    if "stages" not in record or "resolved_config" not in record:
-      skipped += 1
-      continue
-    new = rejudge(record)
-    if new == record:
-      same += 1
-      continue
-    changed += 1
-    rel = os.path.relpath(path, FLAGS.results)
-    for field in ("learned", "heldout_learned"):
-      if new.get(field) != record.get(field):
-        print(f"{rel}: {field} {record.get(field)} -> {new.get(field)}")
-    if not FLAGS.dry_run:
-      run_file.write_json(path, new)
+      try:
+        content = json.load(f)
+      except json.JSONDecodeError:
+        continue
+    found = records_of(content)
+    new_content = content
+    for where, record in found.items():
+      new = rejudge(record)
+      if new == record:
+        same += 1
+        continue
+      changed += 1
+      rel = os.path.relpath(path, FLAGS.results) + (f" [{where}]" if where else "")
+      for field in ("learned", "heldout_learned"):
+        if new.get(field) != record.get(field):
+          print(f"{rel}: {field} {record.get(field)} -> {new.get(field)}")
+      if where:
+        new_content = dict(new_content, methods=dict(new_content["methods"],
+                                                     **{where.split(".", 1)[1]: new}))
+      else:
+        new_content = new
+    if new_content is not content and not FLAGS.dry_run:
+      run_file.write_json(path, new_content)
   print(f"{changed} record(s) {'would change' if FLAGS.dry_run else 'changed'}, {same} "
-        f"already today's, {skipped} without stages or a resolved config")
+        "already today's")
 
 
 if __name__ == "__main__":

@@ -86,10 +86,16 @@ def _run(config, workdir, dataset, pacer):
   origin = provenance.collect()  # once a run: every stage's info carries it
   until = protocol.shares_until(config) if config.protocol == "budget" else {}
   for name in needed(config):
-    if name not in run_now:
+    finished = os.path.exists(_info_path(workdir, name))
+    if name not in run_now or finished:
+      # a stage this launch need not train, or one an earlier launch of the
+      # same config finished: its state and info from the workdir, nothing
+      # compiled, rendered or recomputed (a resumed run goes on from there)
       states[name], info = _restore(config, name, dataset, workdir)
       wall += info["wall_s"]
       spent = info.get("reference_end_s", spent + info["wall_s"])
+      if name in run_now:
+        infos[name] = info
       continue
     stage_config = budget.measured_share(config, name, until, spent)
     ctx = base.StageContext(stage_config, name, dataset, workdir, dict(states), log, spent, mesh,

@@ -36,26 +36,27 @@ def steps(iterable, what: str, desc: str = "", total=None):
 
 class Render:
   """A bar over `num_views` views (or frames) of `rays_per_view` rays each,
-  advanced by rays; at its end it shows the rays/s rendered."""
+  advanced by rays and counting whole views; it shows the rays/s rendered.
+  leave=False: the bar is gone once closed (a render inside a training bar)."""
 
-  def __init__(self, num_views: int, what: str, rays_per_view: int, desc: str):
+  def __init__(self, num_views: int, what: str, rays_per_view: int, desc: str,
+               leave: bool = True):
     self.rays_per_view = max(int(rays_per_view), 1)
     self.rays, self.start = 0, time.perf_counter()
-    self.bar = bar(num_views, desc, what,
-                   bar_format="{l_bar}{bar}| {n:.1f}/{total:.0f} " + what
-                   + " [{elapsed}<{remaining}{postfix}]")
+    self.bar = bar(int(num_views), desc, what, leave=leave)
 
   def advance(self, rays: int):
     self.rays += rays
-    self.bar.update(rays / self.rays_per_view)
     seconds = time.perf_counter() - self.start
     if seconds > 0:
       self.bar.set_postfix_str(f"{self.rays / seconds:.3g} rays/s", refresh=False)
+    whole = min(self.rays // self.rays_per_view, self.bar.total)
+    if whole > self.bar.n:
+      self.bar.update(whole - self.bar.n)
 
   def close(self, finished: bool = True):
-    if finished:  # float updates can fall a hair short of the total: show it whole
-      self.bar.n = self.bar.total
-      self.bar.refresh()
+    if finished and self.bar.n < self.bar.total:
+      self.bar.update(self.bar.total - self.bar.n)
     self.bar.close()
 
   def __enter__(self):

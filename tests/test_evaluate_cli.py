@@ -51,7 +51,7 @@ def test_evaluate_other_stage_and_split(finished_run, capsys):
   wd, infos = finished_run
   r = evaluate_cli.run_evaluation(wd, stage="lo", with_lpips=False)
   err = capsys.readouterr().err
-  assert "evaluate lo on test: 100%" in err and "2.0/2 views" in err
+  assert "evaluate lo on test: 100%" in err and "| 2/2 [" in err
   assert r["float"]["psnr"] == pytest.approx(infos["lo"]["eval"]["psnr"], abs=1e-4)
   train = evaluate_cli.run_evaluation(wd, split="train", with_lpips=False)
   assert train["num_views"] == 4

@@ -18,13 +18,19 @@ def test_a_loop_bar_counts_its_items_on_stderr(capsys):
   assert _lines(err)[-1].startswith("suite: 100%") and "| 3/3 [" in _lines(err)[-1]
 
 
-def test_a_render_bar_counts_views_by_rays_and_ends_with_rays_per_second(capsys):
-  with progress.Render(3, "views", 100, "evaluate") as bar:
-    for rays in (64, 64, 64, 64, 44):  # chunks cross view boundaries
-      bar.advance(rays)
-  last = _lines(capsys.readouterr().err)[-1]
-  assert "3.0/3 views" in last and "rays/s]" in last, last
-  assert bar.rays == 300
+def test_a_render_bar_counts_whole_views_by_rays_and_ends_with_rays_per_second(capsys):
+  import warnings  # pylint: disable=import-outside-toplevel
+  counts = []
+  with warnings.catch_warnings():
+    warnings.simplefilter("error")   # tqdm's 'clamping frac' would raise here
+    with progress.Render(3, "views", 100, "evaluate") as bar:
+      for rays in (64, 64, 64, 64, 44):  # chunks cross view boundaries
+        bar.advance(rays)
+        counts.append(bar.bar.n)
+  assert counts == [0, 1, 1, 2, 3] and bar.rays == 300   # whole views only
+  lines = [l for l in _lines(capsys.readouterr().err) if l.strip()]
+  assert "| 3/3 [" in lines[-1] and lines[-1].endswith("rays/s]"), lines[-1]
+  assert sum("100%" in l for l in lines) == 1 and not any("<-" in l for l in lines), lines
 
 
 def test_a_self_measuring_stage_bar_turns_to_steps_and_names_its_floor(capsys):
@@ -44,3 +50,20 @@ def test_a_self_measuring_stage_bar_turns_to_steps_and_names_its_floor(capsys):
   last = _lines(capsys.readouterr().err)[-1]
   assert "100/100" in last and "floor=100 steps, past its 2 s share" in last, last
 
+
+
+def test_a_short_training_bar_shows_rays_per_second_and_labels_the_curve(capsys):
+  cfg = ml_collections.ConfigDict(dict(max_seconds=0.0, batch_rays=64, steps=10,
+                                       stop_at_step=0, budget_steps=0))
+  bar = ProgressBar("lo", cfg, 0, 0.0)
+  for step in range(1, 6):   # shorter than any log interval
+    bar.advance(step, 0.1, 0.1 * step)
+  bar.evaluating()
+  assert "rendering the held-out curve" in str(bar.bar)
+  bar.resume()
+  assert "rays/s=640" in str(bar.bar), str(bar.bar)
+  for step in range(6, 11):
+    bar.advance(step, 0.1, 0.1 * step)
+  bar.close()
+  last = _lines(capsys.readouterr().err)[-1]
+  assert "10/10" in last and "rays/s=640" in last, last

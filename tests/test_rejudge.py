@@ -36,3 +36,31 @@ def test_the_rules_commit_is_an_ancestor_of_head():
   assert rejudge.older_than_rule("6c5fe1a") is True
   assert rejudge.older_than_rule(rejudge.RULE_COMMIT) is False
   assert rejudge.older_than_rule("") is None
+
+
+def test_every_layout_is_rejudged_whatever_the_files_name(monkeypatch, tmp_path):
+  import json  # pylint: disable=import-outside-toplevel
+  from absl import flags  # pylint: disable=import-outside-toplevel
+  monkeypatch.setattr(rejudge, "constant_of", lambda record: 15.5)
+  monkeypatch.setattr(rejudge, "older_than_rule", lambda commit: commit == "old")
+  no_config = {k: v for k, v in _record("old").items() if k != "resolved_config"}
+  gpu = {"scene": "fern", "methods": {"halo": _record("old"), "nerf_tuned": _record("new")}}
+  (tmp_path / "study").mkdir()
+  (tmp_path / "study" / "seed0.json").write_text(json.dumps(no_config))
+  (tmp_path / "h200_seed0.json").write_text(json.dumps(gpu))
+  (tmp_path / "fingerprints.json").write_text(json.dumps({"tree": {"methods": {}}}))
+  was_parsed = flags.FLAGS.is_parsed()
+  flags.FLAGS(["rejudge", f"--results={tmp_path}"], known_only=True)
+  try:
+    rejudge.main([])
+  finally:
+    flags.FLAGS["results"].value = flags.FLAGS["results"].default
+    if not was_parsed:
+      flags.FLAGS.unparse_flags()
+  study = json.loads((tmp_path / "study" / "seed0.json").read_text())
+  assert study["learned"]["ray"] == "unjudged" and "heldout_learned" not in study
+  got = json.loads((tmp_path / "h200_seed0.json").read_text())
+  assert got["methods"]["halo"]["learned_older_rule"]["verdicts"]["ray"] == "unchecked"
+  assert got["methods"]["halo"]["heldout_learned"] == {"lo": "collapsed", "hi": "learned"}
+  assert got["methods"]["nerf_tuned"]["learned"]["ray"] == "unchecked"   # today's rule's run
+  assert got["scene"] == "fern" and json.loads((tmp_path / "fingerprints.json").read_text())

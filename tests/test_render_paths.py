@@ -108,7 +108,7 @@ def test_render_command_writes_three_videos(scene_root, tmp_path, capsys):
   # a bar counts the frames and ends with the rays/s rendered
   err = capsys.readouterr().err.replace("\r", "\n").splitlines()
   last = [l for l in err if l.startswith("render hi orbit")][-1]
-  assert "6.0/6 frames" in last and re.search(r"[0-9.e+k]+ rays/s\]$", last), last
+  assert "| 6/6 [" in last and re.search(r"[0-9.e+k]+ rays/s\]$", last), last
   ext = ".mp4" if video.has_ffmpeg() else ".gif"
   for key in ("color", "depth", "acc"):
     assert w[key].endswith(f"hi_orbit_{key}{ext}")

@@ -88,6 +88,7 @@ import sys
 sys.path.insert(0, {tests!r})
 from conftest import tiny_config
 from halo_jax import pipeline, stages
+from halo_jax.configure import finish
 c = tiny_config()
 c.data.root = {root!r}
 c.hi.encoding.with_lo = True
@@ -192,3 +193,23 @@ def test_a_saved_config_that_predates_a_field_reads_its_default(tmp_path):
   read = checkpoint.read_config(path)
   assert read.hi.steps == 7 and read.hi.model.compute_dtype == "float32"
   assert read.lo.steps == defaults.base_config().lo.steps
+
+
+@pytest.mark.slow
+def test_a_relaunch_restores_finished_stages_and_trains_none_of_them(scene_root, tmp_path,
+                                                                      monkeypatch):
+  import json  # pylint: disable=import-outside-toplevel
+  from halo_jax.stages import loop  # pylint: disable=import-outside-toplevel
+  from conftest import pipeline_config  # pylint: disable=import-outside-toplevel
+  c = finish(pipeline_config(scene_root, steps=3))
+  wd = str(tmp_path / "run")
+  first = pipeline.run(c, wd)
+  assert list(first) == ["lo", "ray", "hi"]
+
+  def no_training(*args, **kwargs):
+    raise AssertionError("a finished stage was compiled and trained again")
+  monkeypatch.setattr(loop, "train", no_training)
+  again = pipeline.run(c, wd)
+  # the same infos, read back: the record a resumed run makes is the first one's
+  as_json = lambda infos: json.loads(json.dumps(infos))  # noqa: E731
+  assert as_json(again) == as_json(first)

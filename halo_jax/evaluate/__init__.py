@@ -16,9 +16,10 @@ def depth_to_image(depth, near, far):
   return np.repeat((x * 255).round().astype(np.uint8)[..., None], 3, -1)
 
 
-def render_views(eval_fn, views, chunk, indices=None, desc="", what="views"):
+def render_views(eval_fn, views, chunk, indices=None, desc="", what="views", leave=True):
   """Renders views (or views[indices]); returns dict of numpy [V, H, W, ...].
-  With `desc`, a progress bar counts the views (`what`) and shows rays/s."""
+  With `desc`, a progress bar counts the views (`what`) and shows rays/s
+  (leave=False: it is gone once done)."""
   o, d = views.rays()
   t = views.ray_times()
   if indices is not None:
@@ -26,7 +27,7 @@ def render_views(eval_fn, views, chunk, indices=None, desc="", what="views"):
     t = None if t is None else t[indices]
   if not desc:
     return raycast.render_chunked(eval_fn, o, d, chunk, t)
-  with progress.Render(o.shape[0], what, o.shape[1] * o.shape[2], desc) as bar:
+  with progress.Render(o.shape[0], what, o.shape[1] * o.shape[2], desc, leave) as bar:
     return raycast.render_chunked(eval_fn, o, d, chunk, t, on_chunk=bar.advance)
 
 
@@ -36,8 +37,9 @@ def score(rgb, target, with_lpips=False):
   target = jnp.asarray(target)
   out = {"psnr": [float(x) for x in metrics.psnr(rgb, target)],
          "ssim": [float(x) for x in metrics.ssim(rgb, target)]}
-  if with_lpips:
-    out["lpips"] = [float(x) for x in metrics.lpips(rgb, target)]
+  if with_lpips:  # a VGG pass a view: seconds each on a CPU
+    out["lpips"] = [float(metrics.lpips(rgb[i:i + 1], target[i:i + 1])[0])
+                    for i in progress.steps(range(rgb.shape[0]), "views", "LPIPS")]
   return out
 
 
@@ -45,7 +47,7 @@ def heldout(eval_fn, views, chunk, num_views):
   """Mean PSNR over the first `num_views` held-out views (for training curves),
   and the first view's render: {'psnr': float, 'images': {name: [H, W, 3]}}."""
   idx = np.arange(min(num_views, len(views.names)))
-  out = render_views(eval_fn, views, chunk, idx)
+  out = render_views(eval_fn, views, chunk, idx, desc="held-out curve", leave=False)
   return {"psnr": float(np.mean(score(out["rgb"], views.images[idx])["psnr"])),
           "images": {views.names[0]: np.asarray(out["rgb"][0])}}
 

@@ -165,7 +165,9 @@ class _Run:
         cfg.eval_every_s and self.clock(step) - self.last_eval_s >= cfg.eval_every_s)
     if due and self.eval_fn is not None:
       self.finish_step()
+      bar.evaluating()
       self.evaluate(step)
+      bar.resume()
     self.snapshot(step)
 
   def snapshot(self, step):

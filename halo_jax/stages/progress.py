@@ -47,6 +47,16 @@ class ProgressBar:
     if self.rays and wall_s > self.start_wall:
       rate = self.rays * (step - self.start_step) / (wall_s - self.start_wall)
       self.shown.update(step=step, **{"rays/s": f"{rate:.3g}"})
+      self.bar.set_postfix(**self.shown, refresh=False)  # every bar, however short
+
+  def evaluating(self):
+    """Says so on the bar while the held-out curve renders (a bar of its
+    own counts its views); `resume` then keeps that time out of the rate."""
+    self.bar.set_postfix_str("rendering the held-out curve")
+
+  def resume(self):
+    self.bar.set_postfix(**self.shown, refresh=False)
+    self.bar.unpause()
 
   def set_postfix(self, **shown):
     self.shown.update(shown)
