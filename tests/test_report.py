@@ -405,3 +405,28 @@ def test_the_readme_groups_the_scenes_by_the_budgets_halo_leads_at():
   assert budget_report.where_halo_leads(by_budget, ("a", "b", "c", "d")) == (
       "at every budget on a (+1.00 to +0.50 dB), d (+2.00 to +3.00 dB); "
       "at 960 s only on b (-1.00 to +1.00 dB); at no budget on c")
+
+
+def test_the_largest_budget_is_reported_on_every_validation_scene_with_and_without_collapses():
+  from experiments.bench import budget_report
+  rec = lambda p, cfg, learned=None: dict(  # noqa: E731
+      _budget_record(p, cfg), learned=learned or {"hi": "learned"})
+  lego, thin = "configs/blender.py:lego_8view_cpu", "configs/procedural.py:thin_8view_cpu"
+  hook = "configs/dnerf.py:hook_cpu"
+  runs = {"lego_8view": {"halo": [rec(22.0, lego), rec(23.0, lego)],
+                         "nerf_tuned": [rec(22.0, lego), rec(22.0, lego)]},
+          "thin": {"halo": [rec(20.0, thin)],
+                   "nerf_tuned": [rec(10.0, thin, {"hi": "collapsed"})]},
+          "dnerf_hook": {"halo": [rec(18.0, hook)], "nerf_tuned": [rec(19.0, hook)]},
+          "spheres": {"halo": [rec(25.0, thin)]}}   # one method only: not a pair yet
+  lines = budget_report.every_scene_lines(runs, 960.0)
+  text = "\n".join(lines)
+  assert "(3 of 12 so far" in text
+  assert "| blender | lego_8view | 22.50 (2) | 22.00 (2) | +0.50 | 2 | none |" in text
+  assert "| procedural | thin | 20.00 (1) | 10.00 (1) | +10.00 | 2 | nerf_tuned |" in text
+  assert "| dnerf | dnerf_hook | 18.00 (1) | 19.00 (1) | -1.00 | 3 | none |" in text
+  # the mean of +0.50, +10.00, -1.00; without thin, of +0.50 and -1.00
+  assert ("Ahead on 2 of 3; mean +3.17 dB (each scene weighs the same), -0.25 dB without the "
+          "scenes where a run collapsed (thin). Per kind: blender +0.50 (1); dnerf -1.00 (1); "
+          "procedural +10.00 (1).") in text
+  assert budget_report.every_scene_lines({}, 960.0) == []
