@@ -193,3 +193,18 @@ def test_the_default_rule_checks_each_of_its_clauses():
   assert rule((0.1, 0.1, -0.25)) == "fails: no gain on the mean (-0.02 dB)"
   assert rule((0.0, 0.0, 0.0)).startswith("fails: no gain on the mean")
   assert rule((0.5, 0.5, 0.5), seeds=1) == "not measured: a, b, c"   # fewer than 2 seeds
+
+
+def test_an_adopted_record_names_its_source_by_path_hash_and_commit(tmp_path):
+  import hashlib  # pylint: disable=import-outside-toplevel
+  from experiments.bench import adopt  # pylint: disable=import-outside-toplevel
+  path = tmp_path / "validation" / "budget" / "spheres" / "halo" / "seed0.json"
+  path.parent.mkdir(parents=True)
+  path.write_text('{"psnr": 21.5}')
+  got = adopt.source(str(path), str(tmp_path))
+  assert got["path"] == "validation/budget/spheres/halo/seed0.json"
+  assert got["sha256"] == hashlib.sha256(b'{"psnr": 21.5}').hexdigest()
+  assert got["commit"] is None   # not in a git checkout
+  committed = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))),
+                           "results", "faults.json")
+  assert len(adopt.source(committed, os.path.dirname(committed))["commit"] or "") == 40

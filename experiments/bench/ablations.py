@@ -108,7 +108,7 @@ def run_one(study_name, study, scene, variant, seed, results, scratch) -> dict:
   start = time.time()
   same = adopt.identical_suite_run(c, scene, variant.method, seed, results)
   if same:
-    record = dict(same[1], adopted_from=os.path.relpath(same[0], results))
+    record = dict(same[1], adopted_from=adopt.source(same[0], results))
   else:
     record = git_state.stamp(runs.run_method(c, workdir))
   record.pop("per_view", None)

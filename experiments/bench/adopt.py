@@ -2,8 +2,10 @@
 the same code fingerprint, so the same figures, adopted instead of trained
 again (experiments/bench/ablations.py)."""
 import functools
+import hashlib
 import json
 import os
+import subprocess
 
 from absl import logging
 
@@ -82,3 +84,17 @@ def identical_suite_run(c, scene, method, seed, results, table=None, mine_fp=Non
                       "is %s and this code's %s (same_numbers.py --record measures it)",
                       path, theirs_fp, mine_fp)
   return None
+
+
+def source(path: str, results: str) -> dict:
+  """What an adopted record names of the suite record it copies: its path
+  under `results`, the sha256 of its bytes, and the last commit that wrote
+  that file (None where git cannot say: a file not committed yet)."""
+  with open(path, "rb") as f:
+    digest = hashlib.sha256(f.read()).hexdigest()
+  out = subprocess.run(["git", "-C", os.path.dirname(os.path.abspath(path)), "log", "-1",
+                        "--format=%H", "--", os.path.abspath(path)],
+                       capture_output=True, text=True, check=False)
+  return {"path": os.path.relpath(path, results), "sha256": digest,
+          "commit": out.stdout.strip() or None}
+
