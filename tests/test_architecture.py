@@ -148,7 +148,8 @@ def test_modules_and_functions_stay_small():
 ])
 def test_registries_hold_every_entry(registry, expected):
   import halo_jax.pipeline  # noqa: F401  (registers the stage trainers)
-  assert set(registry.names()) == expected
+  # none lost; a new entry (a method module and its registry line) needs no edit here
+  assert expected <= set(registry.names())
 
 
 def _accepts(fn, protocol) -> bool:

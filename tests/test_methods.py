@@ -363,15 +363,6 @@ def test_the_joint_scheme_is_a_method():
   assert (two_stage.stages, two_stage.hi.sampler.kind) == ("lo,ray,hi", "depth_guided")
 
 
-def test_the_method_table_in_the_docs_is_generated_from_the_configs():
-  import sys  # pylint: disable=g-import-not-at-top
-  sys.path.insert(0, os.path.join(os.path.dirname(__file__), ".."))
-  from experiments.bench import method_table  # pylint: disable=g-import-not-at-top
-  page = open(os.path.join(os.path.dirname(__file__), "..", "docs", "baselines.md")).read()
-  assert method_table.splice(page, method_table.generate()) == page, (
-      "docs/baselines.md is stale: run python -m experiments.method_table")
-
-
 def test_the_extending_example_is_one_file_and_one_line(monkeypatch):
   # docs/extending.md's method, run from the page itself: registered with one
   # line, it runs on every scene file and differs from nerf_tuned

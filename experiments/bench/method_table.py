@@ -27,7 +27,6 @@ KINDS = (
     ("ndc (LLFF fern, 4 views)", "configs/llff.py:fern_4view_cpu"),
     ("two_plane (Stanford knights)", "configs/stanford_lf.py:knights_cpu"),
 )
-ORDER = tuple(METHODS.names())
 # Inputs and bookkeeping, not settings of the method itself: the data and its
 # protocol, the budget's split (a single stage takes it all), and
 # baseline.num_samples (read into hi.sampler.num_samples).
@@ -52,11 +51,12 @@ def _show(v):
   return str(v).replace(",", ", ") if isinstance(v, str) else str(v)
 
 
-def resolve(spec):
-  """{method: ({field: value}, stages it runs)} for every method that runs on `spec`,
-  and {method: the one-line refusal} for the others."""
+def resolve(spec, names=None):
+  """{method: ({field: value}, stages it runs)} for every method of `names`
+  (None: every registered one) that runs on `spec`, and {method: the
+  one-line refusal} for the others."""
   ran, refused = {}, {}
-  for name in ORDER:
+  for name in names or METHODS.names():
     try:
       c = configure.load(spec, name)
     except ConfigError as e:
@@ -89,8 +89,8 @@ def rows(ran):
   return out
 
 
-def table(title, spec):
-  ran, refused = resolve(spec)
+def table(title, spec, names=None):
+  ran, refused = resolve(spec, names)
   lines = [f"**{title}**, `{spec}`", "",
            "| field | " + " | ".join(f"`{n}`" for n in ran) + " |",
            "|---|" + "---|" * len(ran)]
@@ -102,8 +102,22 @@ def table(title, spec):
   return "\n".join(lines)
 
 
-def generate():
-  return "\n\n".join(table(title, spec) for title, spec in KINDS)
+def generate(names=None):
+  """The page's block, a column per method of `names` (None: every registered one)."""
+  return "\n\n".join(table(title, spec, names) for title, spec in KINDS)
+
+
+def documented(page_text) -> list:
+  """The methods the page's block has columns for, in its order: a method
+  registered since the page was written is added when it is regenerated,
+  and its absence does not make the page stale."""
+  block = page_text.split(BEGIN, 1)[1].split(END, 1)[0]
+  names = []
+  for line in block.splitlines():
+    if line.startswith("| field | "):
+      names += [c.strip().strip("`") for c in line.split("|")[2:-1]
+                if c.strip().strip("`") not in names]
+  return [n for n in METHODS.names() if n in names]
 
 
 def splice(page_text, block):
