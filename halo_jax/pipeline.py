@@ -36,6 +36,16 @@ def _restore(config, name, dataset, workdir):
   return state, info
 
 
+def _finished(config, name, workdir) -> bool:
+  """Whether an earlier launch finished stage `name` at the step this config
+  ends it at (a relaunch with more steps trains on from its checkpoint)."""
+  path = _info_path(workdir, name)
+  if not os.path.exists(path):
+    return False
+  with open(path) as f:
+    return json.load(f).get("step", 0) >= budget.last_step(config[name])
+
+
 def run(config, workdir: str, dataset=None, pacer=None) -> dict:
   """Runs `config.stages` in `workdir`; returns {stage: info} for the stages run.
 
@@ -86,8 +96,7 @@ def _run(config, workdir, dataset, pacer):
   origin = provenance.collect()  # once a run: every stage's info carries it
   until = protocol.shares_until(config) if config.protocol == "budget" else {}
   for name in needed(config):
-    finished = os.path.exists(_info_path(workdir, name))
-    if name not in run_now or finished:
+    if name not in run_now or _finished(config, name, workdir):
       # a stage this launch need not train, or one an earlier launch of the
       # same config finished: its state and info from the workdir, nothing
       # compiled, rendered or recomputed (a resumed run goes on from there)

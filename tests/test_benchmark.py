@@ -102,7 +102,7 @@ def test_smoke_suite_writes_and_skips(tmp_path):
   assert val["split"] == "val" and val["num_views"] == 24 and set(val["stages"]) == {"hi"}
   # above the best constant image (the val views' own mean colour, an oracle
   # no untrained field reaches): the run learned, and the score is of its renders
-  c = benchmark.configure(suites.SMOKE, scene, "nerf_tuned", 0, "budget", scratch)
+  c = frozen.thaw(benchmark.configure(suites.SMOKE, scene, "nerf_tuned", 0, "budget", scratch))
   c.data.update(test_split="val", test_views="all")
   val_images = datasets.load(c.data).test.images
   assert val["stages"]["hi"]["psnr"] > collapse.constant_psnr(val_images) + 1.0

@@ -100,7 +100,7 @@ def test_a_fingerprint_run_trains_its_counts_on_the_reference_clock(tmp_path):
   snapshots and the curve's points at the steps of their reference times,
   judged learned, scored."""
   out = tmp_path / "figures.json"
-  subprocess.run([sys.executable, os.path.join(REPO, "experiments", "same_numbers.py"),
+  subprocess.run([sys.executable, "-m", "experiments.same_numbers",
                   f"--out={out}", "--scenes=lattice", "--methods=nerf_tuned"], check=True,
                  cwd=REPO)
   r = json.loads(out.read_text())["lattice/nerf_tuned"]

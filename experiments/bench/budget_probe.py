@@ -28,7 +28,6 @@ machine that trained them:
 
   python -m experiments.bench.budget_probe --suite=budget_960 --scratch=/tmp/bud_s0
 """
-import copy
 import math
 import os
 import sys
@@ -37,7 +36,7 @@ from absl import flags, logging
 import jax
 import numpy as np
 
-from halo_jax import metrics, progress, raycast, restore, samplers
+from halo_jax import frozen, metrics, progress, raycast, restore, samplers
 from experiments.bench import git_state
 from experiments.bench import run_file, selection, suites, tool
 from experiments.bench.paths import REPO, result_path, workdir_of
@@ -81,9 +80,7 @@ def _psnr_mean(rgb, gt) -> float:
 
 def with_sampler(config, name, **fields):
   """A copy of `config` whose stage `name` renders with these sampler fields."""
-  out = copy.deepcopy(config)
-  out[name].sampler.update(fields)
-  return out
+  return frozen.replaced(config, {f"{name}.sampler.{k}": v for k, v in fields.items()})
 
 
 def guide_depth(config, dataset, states, o, d, chunk):

@@ -9,26 +9,19 @@ imports no jax. Where HALO_JAX_PYTHON names a Python with halo-jax, the
 method runs there (nerfbaselines_venv.py); else nerfbaselines' conda
 backend builds an environment and installs this source tree into it.
 """
-import importlib.util
 import os
+import sys
 
 from nerfbaselines import register
 
-
-def _sibling(name: str):
-  """A jax-free module beside this file, loaded by its path: nerfbaselines'
-  process need not have halo-jax installed, and its import path is left alone."""
-  path = os.path.join(os.path.dirname(os.path.abspath(__file__)), f"{name}.py")
-  spec = importlib.util.spec_from_file_location(f"halo_jax_nb_{name}", path)
-  module = importlib.util.module_from_spec(spec)
-  spec.loader.exec_module(module)
-  return module
-
-
-# the source tree this file is in, which nerfbaselines' conda backend installs
+# nerfbaselines loads this file in its own process and then imports the
+# method class by module name (`method_class` below): the one place the
+# source tree goes on the import path, since halo-jax is not installed there.
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-nerfbaselines_datasets = _sibling("nerfbaselines_datasets")
-nerfbaselines_info = _sibling("nerfbaselines_info")
+if ROOT not in sys.path:
+  sys.path.insert(0, ROOT)
+
+from halo_jax.integrations import nerfbaselines_datasets, nerfbaselines_info  # noqa: E402
 
 _METADATA = {
     "name": "HALO (halo-jax)",
