@@ -53,37 +53,47 @@ def every_scene_lines(runs, budget_s: float) -> list:
   per scene both methods' mean and seeds, and per kind and overall the
   mean lead with and without the scenes where a run collapsed."""
   wanted = {s.name: s.seeds for s in suites.BUDGET_960.scenes}
-  rows, kinds, gone = [], {}, set()
+  rows = []
   for s, by in runs.items():
     x = lead(by)
     bad = collapsed_methods(by, (METHOD, BASELINE))
-    if bad:
-      gone.add(s)
     kind = code_version.kind_of(next(r for rs in by.values() for r in rs)["config"])
-    if x is not None:
-      kinds.setdefault(kind, []).append((s, x))
     cells = [f"{np.mean([r['psnr'] for r in by[m]]):.2f} ({len(by[m])})" if m in by else "-"
              for m in (METHOD, BASELINE)]
     rows.append(f"| {kind} | {s} | {cells[0]} | {cells[1]} | "
                 + ("-" if x is None else f"{x:+.2f}") + f" | {wanted.get(s, '-')} | "
                 + (", ".join(bad) if bad else "none") + " |")
-  pairs = [(s, x) for v in kinds.values() for s, x in v]
+  pairs = [s for s, by in runs.items() if lead(by) is not None]
   if not pairs:
     return []
+  return [f"## {budget_s:g} s on every validation scene", "",
+          f"halo against {BASELINE} at {budget_s:g} reference seconds on each validation scene "
+          f"that has runs of both ({len(pairs)} of {len(wanted)} so far; the seeds wanted in "
+          "the `seeds` column). PSNR is the mean over seeds (seeds in brackets).", "",
+          f"| kind | scene | {METHOD} | {BASELINE} | Δ | seeds | collapsed |",
+          "|---|---|---|---|---|---|---|", *rows, "", every_scene_summary(runs) + ".", ""]
+
+
+def every_scene_summary(runs) -> str:
+  """'Ahead on a of n; mean ... Per kind: ...' over the scenes of `runs` with
+  both methods ('' for none): the page's closing line and the README's clause."""
+  kinds, gone = {}, set()
+  for s, by in runs.items():
+    if collapsed_methods(by, (METHOD, BASELINE)):
+      gone.add(s)
+    if lead(by) is not None:
+      kind = code_version.kind_of(next(r for rs in by.values() for r in rs)["config"])
+      kinds.setdefault(kind, []).append((s, lead(by)))
+  pairs = [(s, x) for v in kinds.values() for s, x in v]
+  if not pairs:
+    return ""
   mean = lambda xs: f"{np.mean(xs):+.2f}" if xs else "-"  # noqa: E731
   kept = [x for s, x in pairs if s not in gone]
-  out = [f"## {budget_s:g} s on every validation scene", "",
-         f"halo against {BASELINE} at {budget_s:g} reference seconds on each validation scene "
-         f"that has runs of both ({len(pairs)} of {len(wanted)} so far; the seeds wanted in "
-         "the `seeds` column). PSNR is the mean over seeds (seeds in brackets).", "",
-         f"| kind | scene | {METHOD} | {BASELINE} | Δ | seeds | collapsed |",
-         "|---|---|---|---|---|---|---|", *rows, "",
-         f"Ahead on {sum(x > 0 for _, x in pairs)} of {len(pairs)}; mean {mean([x for _, x in pairs])}"
-         f" dB (each scene weighs the same), {mean(kept)} dB without the scenes where a run "
-         f"collapsed ({', '.join(sorted(gone)) or 'none'}). Per kind: "
-         + "; ".join(f"{k} {mean([x for _, x in v])} ({len(v)})" for k, v in sorted(kinds.items()))
-         + ".", ""]
-  return out
+  return (f"Ahead on {sum(x > 0 for _, x in pairs)} of {len(pairs)}; mean "
+          f"{mean([x for _, x in pairs])} dB (each scene weighs the same), {mean(kept)} dB "
+          f"without the scenes where a run collapsed ({', '.join(sorted(gone)) or 'none'}). "
+          "Per kind: " + "; ".join(f"{k} {mean([x for _, x in v])} ({len(v)})"
+                                   for k, v in sorted(kinds.items())))
 
 
 def lead(by_method):
@@ -347,10 +357,12 @@ def write(all_suites, docs, results="") -> str:
                                       lead, overfit=falling_curve)
   with open(os.path.join(docs, f"{PAGE}.md"), "w") as f:
     f.write("\n".join(out))
-  every = every_scene_lines(every_scene(all_suites), budgets[-1])
-  summary = every[-2].split(". Per kind: ") if every else None
-  clause = (f" At {budgets[-1]:g} s on every validation scene ({every[2].split('(')[1].split(';')[0]}"
-            f" with both methods): {summary[0][0].lower()}{summary[0][1:]}; per kind "
-            f"{summary[1]}" if every else "")
+  runs = every_scene(all_suites)
+  summary = every_scene_summary(runs)
+  pairs = sum(lead(by) is not None for by in runs.values())
+  clause = (f" At {budgets[-1]:g} s on every validation scene ({pairs} of "
+            f"{len(suites.BUDGET_960.scenes)} so far with both methods): "
+            + summary[0].lower() + summary[1:].replace(". Per kind: ", "; per kind ") + "."
+            if summary else "")
   sentence = readme_sentence(by_budget)   # a partial study says nothing in the README
   return (sentence + clause) if sentence else ""
