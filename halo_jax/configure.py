@@ -17,6 +17,7 @@ import importlib.util
 import os
 
 from halo_jax import config_files, frozen, methods, protocol as protocols
+from halo_jax.stages import order
 
 
 def load_scene(spec: str):
@@ -47,13 +48,14 @@ def compose(scene, method: str, overrides=None, protocol=None) -> frozen.Frozen:
   if protocol is not None:
     protocols.apply(base, protocol)
   c = methods.apply(base, method, overrides)
-  return frozen.freeze(protocols.resolve(c))
+  return frozen.freeze(protocols.resolve(c, order.graph(c)))
 
 
 def finish(config) -> frozen.Frozen:
   """A config edited by hand after compose (a test's, a tool's variant)
   made a run's value again: its protocol resolved, frozen."""
-  return frozen.freeze(protocols.resolve(frozen.thaw(config)))
+  c = frozen.thaw(config)
+  return frozen.freeze(protocols.resolve(c, order.graph(c)))
 
 
 def load(spec: str, method: str, overrides=None, protocol=None) -> frozen.Frozen:

@@ -24,26 +24,26 @@ def _info_path(workdir, name):
   return os.path.join(stage_dir(workdir, name), "final", "info.json")
 
 
-def _restore(config, name, dataset, workdir):
-  """A finished stage's state and its info.json, from the workdir
-  (collapse.Collapsed for a stage that was saved collapsed)."""
+def _restored(config, name, dataset, workdir, train_now):
+  """A needed stage this launch does not train: (its state, its info.json)
+  from the workdir, or None where it trains now. That is a stage not in
+  `train_now`, or one an earlier launch of this config finished at the step
+  this config ends it at (a relaunch with more steps trains on from its
+  checkpoint). collapse.Collapsed for a stage that was saved collapsed."""
+  path = _info_path(workdir, name)
+  if name in train_now:
+    if not os.path.exists(path):
+      return None
+    with open(path) as f:
+      if json.load(f).get("step", 0) < budget.last_step(config[name]):
+        return None
   like = base.trainer_of(config, name).params_like(config, name, dataset)
   state = load(workdir, name, like)
-  with open(_info_path(workdir, name)) as f:
+  with open(path) as f:
     info = json.load(f)
   if collapse.collapsed(info):
     raise collapse.Collapsed(name, info["learned"], {name: info})
   return state, info
-
-
-def _finished(config, name, workdir) -> bool:
-  """Whether an earlier launch finished stage `name` at the step this config
-  ends it at (a relaunch with more steps trains on from its checkpoint)."""
-  path = _info_path(workdir, name)
-  if not os.path.exists(path):
-    return False
-  with open(path) as f:
-    return json.load(f).get("step", 0) >= budget.last_step(config[name])
 
 
 def run(config, workdir: str, dataset=None, pacer=None) -> dict:
@@ -65,9 +65,9 @@ def run(config, workdir: str, dataset=None, pacer=None) -> dict:
     raise validate.ConfigError(
         "pipeline.run takes a composed, frozen config (configure.compose; configure.finish "
         f"for one edited by hand), not a mutable {type(config).__name__}")
-  validate.validate(config)
+  graph = validate.validate(config)
   as_json = lambda c: json.loads(c.to_json_best_effort())  # tuples and lists alike
-  if as_json(protocol.resolve(frozen.thaw(config))) != as_json(config):
+  if as_json(protocol.resolve(frozen.thaw(config), graph)) != as_json(config):
     raise validate.ConfigError("the config's protocol is not resolved (its step counts were "
                                "edited after compose): make it with configure.compose or "
                                "configure.finish")
@@ -77,13 +77,13 @@ def run(config, workdir: str, dataset=None, pacer=None) -> dict:
   # In a multi-process job the processes share the workdir; process 0 holds it.
   held = workdir_lock.hold(workdir) if parallel.is_primary() else contextlib.nullcontext()
   with held:
-    return _run(config, workdir, dataset, pacer)
+    return _run(config, graph, workdir, dataset, pacer)
 
 
-def _run(config, workdir, dataset, pacer):
+def _run(config, graph, workdir, dataset, pacer):
+  until = protocol.shares_until(config, graph.final) if config.protocol == "budget" else {}
   check_workdir(config, workdir)
-  run_now = parse_stages(config.stages, config)
-  if config.lo.encoding.auto and "lo" in needed(config):
+  if config.lo.encoding.auto and "lo" in graph.run:
     # The search's own training time is not part of this run's budget.
     L, scale = tuning.chosen_encoding(config, workdir, dataset, run)
     config = frozen.replaced(config, {"lo.encoding.L": L, "lo.encoding.scale": scale})
@@ -94,16 +94,14 @@ def _run(config, workdir, dataset, pacer):
   states, infos, wall, spent = {}, {}, 0.0, 0.0
   heldout_constant = None  # the best constant image's PSNR on the held-out views
   origin = provenance.collect()  # once a run: every stage's info carries it
-  until = protocol.shares_until(config) if config.protocol == "budget" else {}
-  for name in needed(config):
-    if name not in run_now or _finished(config, name, workdir):
-      # a stage this launch need not train, or one an earlier launch of the
-      # same config finished: its state and info from the workdir, nothing
-      # compiled, rendered or recomputed (a resumed run goes on from there)
-      states[name], info = _restore(config, name, dataset, workdir)
+  for name in graph.run:
+    restored = _restored(config, name, dataset, workdir, graph.launch)
+    if restored:
+      # nothing compiled, rendered or recomputed (a resumed run goes on from there)
+      states[name], info = restored
       wall += info["wall_s"]
       spent = info.get("reference_end_s", spent + info["wall_s"])
-      if name in run_now:
+      if name in graph.launch:
         infos[name] = info
       continue
     stage_config = budget.measured_share(config, name, until, spent)

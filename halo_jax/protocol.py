@@ -89,62 +89,65 @@ def apply(config, protocol):
                    "seconds > 0")
 
 
-def _clear(config):
+def _clear(config, sections):
   """Resets the fields resolve owns (a budget owns max_seconds too; under
   the other protocols it is the user's time cap, which a loop also turns
   into steps after timing its first ones)."""
-  for name in stage_names(config):
+  for name in sections:
     for field in OWNED:
       config[name][field] = 0 if field == "budget_steps" else 0.0
     if config.protocol == "budget":
       config[name].max_seconds = 0.0
 
 
-def check(config):
-  """ConfigError naming the field for an unknown protocol, or a budget that
-  does not fit it (run before any work: halo_jax/validate.py)."""
+def problems(config, graph):
+  """The one-line complaints (stages/order.Graph `graph`) about an unknown
+  protocol, or a budget that does not fit it, first first (halo_jax/validate.py)."""
   kind = config.get("protocol", "paper")
-  registry.check(kind in KINDS, f"protocol={kind!r}: must be one of {list(KINDS)}")
-  registry.check(config.budget_s >= 0, f"budget_s={config.budget_s!r}: must be >= 0")
-  registry.check((config.budget_s > 0) == (kind == "budget"),
-                 f"budget_s={config.budget_s!r} with protocol={kind!r}: a budget of reference "
-                 "seconds needs protocol='budget' and budget_s > 0; the other protocols have none")
-  for name in stage_names(config):
+  if kind not in KINDS:
+    yield f"protocol={kind!r}: must be one of {list(KINDS)}"
+  if not config.budget_s >= 0:
+    yield f"budget_s={config.budget_s!r}: must be >= 0"
+  if (config.budget_s > 0) != (kind == "budget"):
+    yield (f"budget_s={config.budget_s!r} with protocol={kind!r}: a budget of reference "
+           "seconds needs protocol='budget' and budget_s > 0; the other protocols have none")
+  for name in graph.sections:
     span = config[name].get("schedule_span", "steps")
-    registry.check(span in SPANS, f"{name}.schedule_span={span!r}: must be one of {list(SPANS)}")
+    if span not in SPANS:
+      yield f"{name}.schedule_span={span!r}: must be one of {list(SPANS)}"
   if kind == "budget":
-    names = needed(config, config.final_stage)
-    shares = {n: config.budget_shares.get(n, None) for n in names}
+    shares = {n: config.budget_shares.get(n, None) for n in graph.final}
     missing = [n for n, v in shares.items() if v is None]
-    registry.check(not missing, f"budget_shares has no share for stage(s) {missing}")
-    registry.check(all(v >= 0 for v in shares.values()) and sum(shares.values()) > 0,
-                   f"budget_shares {shares}: shares must be >= 0 and sum to more than 0 over "
-                   f"the stages {list(names)}")
+    if missing:
+      yield f"budget_shares has no share for stage(s) {missing}"
+    elif not (all(v >= 0 for v in shares.values()) and sum(shares.values()) > 0):
+      yield (f"budget_shares {shares}: shares must be >= 0 and sum to more than 0 over "
+             f"the stages {list(graph.final)}")
 
 
-def resolve(config):
+def resolve(config, graph):
   """Fixes each stage's step count under config's protocol, in place; returns
-  config (ConfigError as `check` says)."""
-  check(config)
-  _clear(config)
-  _copy_lo(config)
+  config (ConfigError as `problems` says). graph: config's stage graph
+  (stages/order.graph), read once by the caller."""
+  for message in problems(config, graph):
+    raise registry.ConfigError(message)
+  _clear(config, graph.sections)
   if config.protocol == "budget":
-    _budget_steps(config)
-  for name in stage_names(config):
+    _copy_lo(config, graph.sections)
+    _budget_steps(config, graph.final)
+  for name in graph.sections:
     if config[name].get("schedule_span", "steps") == "stage":
       _span_schedules(config[name])
   return config
 
 
-def _copy_lo(config):
+def _copy_lo(config, sections):
   """Under the 'budget' protocol, each stage with `copy_lo_under_budget`
   starts as Lo-NeRF's exact copy (init_from_lo, encoding.with_lo): the few
   thousand steps a budget allows do not bring a field trained from scratch
   back to where Lo already is (methods/halo.py). Set before the step table is
   read: with_lo widens the stage's input, so it is part of the stage's key."""
-  if config.protocol != "budget":
-    return
-  for name in stage_names(config):
+  for name in sections:
     if config[name].get("copy_lo_under_budget", False):
       config[name].init_from_lo = True
       config[name].encoding.with_lo = True
@@ -170,27 +173,29 @@ def _span_schedules(cfg):
   cfg.steps = length
 
 
-def split(config, total: float) -> dict:
+def split(config, total: float, final) -> dict:
   """{stage: its part of `total`}: the one split of a budget (seconds, or a
-  step count) over the stages config.final_stage needs, by budget_shares."""
-  shares = {n: config.budget_shares[n] for n in needed(config, config.final_stage)}
+  step count) over `final`, the stages config.final_stage needs
+  (stages/order.Graph.final), by budget_shares."""
+  shares = {n: config.budget_shares[n] for n in final}
   whole = sum(shares.values())
   return {n: total * share / whole for n, share in shares.items()}
 
 
-def shares_until(config) -> dict:
-  """{stage: budget seconds of the method's stages up to and including it}."""
+def shares_until(config, final) -> dict:
+  """{stage: budget seconds of the method's stages up to and including it}
+  (`final` as `split` takes it)."""
   until, acc = {}, 0.0
-  for name, part in split(config, config.budget_s).items():
+  for name, part in split(config, config.budget_s, final).items():
     acc += part
     until[name] = acc
   return until
 
 
-def _budget_steps(config):
+def _budget_steps(config, final):
   """Each stage's budget_steps from the step table (module docstring)."""
+  parts = split(config, config.budget_s, final)
   table = step_table.load(config.get("step_table", ""))
-  parts = split(config, config.budget_s)
   names = list(parts)
   until, spent, measuring = 0.0, 0.0, False
   for name in names:

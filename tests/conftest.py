@@ -126,6 +126,13 @@ def editable(scene, method, overrides=None):
   return frozen.thaw(configure.compose(scene, method, overrides))
 
 
+def resolved(config):
+  """protocol.resolve of a mutable config with its stage graph (in place)."""
+  from halo_jax import protocol
+  from halo_jax.stages import order
+  return protocol.resolve(config, order.graph(config))
+
+
 # HALO_TOY_METHOD=1 registers test_new_method's toy (one module, one registry
 # line) for the whole session: the suite must pass with a method added that
 # no test names (python -m pytest -q tests with it set).

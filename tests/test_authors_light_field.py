@@ -9,7 +9,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from conftest import editable  # pylint: disable=g-import-not-at-top
+from conftest import editable, resolved  # pylint: disable=g-import-not-at-top
 
 from conftest import SHARED_DATA
 from halo_jax import configure, encoding, lightfield, ray_fields, samplers
@@ -266,7 +266,6 @@ def test_authors_lo_nerf_is_their_lfnerf_config():
   """configs/nelf_nerf_synthetic_hotdog_sparse_lfnerf.py as
   scripts/lf_hf_nerf_8view_gpu.py:29-35 launches it (no overrides) and
   lf_hf_nerf_oneside.py:15-24 (scale 1, 3 epochs)."""
-  from halo_jax import protocol
   from halo_jax.stages import step
   lo = configure.load("configs/blender.py:lego_8view", "halo_authors").lo
   # :10-11 BaseEmbedder nb_freqs=5, scale=32; :50 coarse_field use_dirs=False
@@ -294,7 +293,6 @@ def test_authors_lo_nerf_is_their_lfnerf_config():
 def test_authors_schedules_span_the_steps_hi_trains():
   # Hi stopped at 736 of its 6000-step cap: the crop (1000 of 80k), L_empty's
   # start on drums (2000 of 80k) and the Poly rate span the 736 steps
-  from halo_jax import protocol
   from halo_jax.stages import step
   over = {"protocol": "steps", "budget_s": 0.0, "hi.stop_at_step": 736}
   for scene, start in (("lego", 0), ("drums", 2000)):
@@ -316,13 +314,13 @@ def test_authors_schedules_span_the_steps_hi_trains():
 def test_authors_schedules_span_the_budgets_count(tmp_path):
   # under the budget protocol the count comes from the step table
   import json
-  from halo_jax import protocol, step_table
+  from halo_jax import step_table
   c = editable("configs/llff.py:fern_4view_cpu", "halo_authors")
   table = tmp_path / "table.json"
   table.write_text(json.dumps({"entries": {step_table.key(c, "hi"): {"step_s": 0.5,
                                                                      "setup_s": 0.0}}}))
   c.step_table = str(table)
-  hi = protocol.resolve(c).hi
+  hi = resolved(c).hi
   assert hi.budget_steps == hi.steps == math.ceil(c.budget_s / 0.5)
   assert hi.joint.alpha_steps == round(round(6000 * 12000 / 124000) * hi.steps / 6000)
   assert hi.lr_power == 2.0 and hi.lr_final == 5e-6

@@ -9,6 +9,7 @@ import pytest
 from halo_jax import configure, datasets, frozen  # pylint: disable=g-import-not-at-top
 from halo_jax.stages import collapse  # pylint: disable=g-import-not-at-top
 from experiments.bench import benchmark, suites  # pylint: disable=g-import-not-at-top
+from conftest import resolved
 
 
 def test_cpu_plan_is_seed_major_and_complete():
@@ -153,7 +154,7 @@ def test_the_budget_studys_suites_are_the_validation_suite_at_other_budgets(tmp_
         if n in a.stages:
           set_field(b, f"{n}.eval_every_s", a[n].eval_every_s)
       assert json.loads(a.to_json_best_effort()) == json.loads(
-          benchmark.protocol.resolve(b).to_json_best_effort())
+          resolved(b).to_json_best_effort())
   assert kinds == {"configs/blender.py", "configs/dnerf.py", "configs/llff.py",
                    "configs/stanford_lf.py"}
   # 960 s covers every validation scene, with more seeds on the dynamic ones

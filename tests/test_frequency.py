@@ -236,7 +236,8 @@ def test_tune_keeps_a_collapsed_point_and_passes_over_it(config, tmp_path, monke
 
   crit = {6: 0.1, 3: 0.2}   # both below the threshold; the collapsed one first
   monkeypatch.setattr(tuning.base, "trainer_of",
-                      lambda c, n: type("T", (), {"params_like": lambda *a: None})())
+                      lambda c, n: type("T", (), {"params_like": lambda *a: None,
+                                                  "requires": lambda *a: ()})())
   monkeypatch.setattr(tuning, "load", lambda *a: None)
   monkeypatch.setattr(tuning, "lo_renderer", lambda c, d, s: c.lo.encoding.L)
   monkeypatch.setattr(tuning, "criterion_of", lambda L, d, c: {

@@ -7,7 +7,7 @@ import ml_collections
 import pytest
 
 from halo_jax import frozen, pipeline, protocol
-from halo_jax.stages import base
+from halo_jax.stages import base, order
 from conftest import pipeline_config
 from halo_jax.configure import finish  # pylint: disable=g-import-not-at-top
 
@@ -41,7 +41,7 @@ def test_the_stages_receive_an_immutable_config(tmp_path, monkeypatch):
     at_start = json.load(f)
   for _, config in seen:  # the value the run recorded first is the one every stage had
     assert json.loads(config.to_json_best_effort()) == at_start
-  assert at_start == json.loads(protocol.resolve(frozen.thaw(c)).to_json_best_effort())
+  assert at_start == json.loads(protocol.resolve(frozen.thaw(c), order.graph(c)).to_json_best_effort())
 
 
 def test_replaced_makes_a_new_value_and_leaves_the_old_one():

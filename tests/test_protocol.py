@@ -7,7 +7,7 @@ import os
 
 import pytest
 
-from conftest import tiny_config
+from conftest import resolved, tiny_config
 from halo_jax import configure, pipeline, protocol, registry, runs, step_table
 from halo_jax.stages import budget
 from conftest import editable  # pylint: disable=g-import-not-at-top
@@ -23,7 +23,7 @@ def _table(tmp_path, config, names=("lo", "ray", "hi"), setup_s=None):
   widens Hi's input)."""
   path = str(tmp_path / "table.json")
   setup_s = SETUP_S if setup_s is None else setup_s
-  config = protocol.resolve(config.copy_and_resolve_references())
+  config = resolved(config.copy_and_resolve_references())
   entries = {step_table.key(config, n): {"step_s": STEP_S[n], "setup_s": setup_s[n]}
              for n in names}
   with open(path, "w") as f:
@@ -38,7 +38,7 @@ def _budgeted(tmp_path, seconds=100.0, steps=10 ** 5):
     c[n].steps = steps
   protocol.budget(c, seconds)
   c.step_table = _table(tmp_path, c)
-  return protocol.resolve(c)
+  return resolved(c)
 
 
 def test_a_budget_is_its_shares_in_steps_of_the_table(tmp_path):
@@ -58,7 +58,7 @@ def test_a_stage_capped_before_its_share_leaves_its_time_to_the_next(tmp_path):
   c.lo.steps, c.ray.steps, c.hi.steps = 100, 10 ** 5, 10 ** 5
   protocol.budget(c, 100.0)
   c.step_table = _table(tmp_path, c)
-  protocol.resolve(c)
+  resolved(c)
   assert c.lo.budget_steps == 100                        # 10 s of its 30
   assert c.ray.budget_steps == math.ceil((37 - 10 - 2) / 0.01 - 1e-9)
   assert c.hi.ref_offset_s == pytest.approx(37.0)        # the ray field took what lo left
@@ -72,7 +72,7 @@ def test_a_share_too_small_still_trains_the_floor_and_the_next_stage_pays(tmp_pa
   c.ray.min_steps = 200
   protocol.budget(c, 100.0)
   c.step_table = _table(tmp_path, c)
-  protocol.resolve(c)
+  resolved(c)
   assert c.ray.budget_steps == 200
   spent = 30.0 + 2.0 + 200 * 0.01
   assert c.hi.ref_offset_s == pytest.approx(spent)
@@ -86,7 +86,7 @@ def test_the_last_stage_has_no_floor_so_a_method_ends_within_its_budget(tmp_path
     c[n].update(steps=10 ** 5, min_steps=100)
   protocol.budget(c, 10.0)
   c.step_table = _table(tmp_path, c)
-  protocol.resolve(c)
+  resolved(c)
   assert c.lo.budget_steps == 100 and c.ray.budget_steps == 100      # floors: 10 s, 1 s
   # hi: nothing left after lo's 10 s, ray's 2 s set-up and 1 s: one step, not 100
   assert c.hi.budget_steps == 1
@@ -95,9 +95,9 @@ def test_the_last_stage_has_no_floor_so_a_method_ends_within_its_budget(tmp_path
 def test_resolving_again_gives_the_same_counts_and_follows_a_new_budget(tmp_path):
   c = _budgeted(tmp_path)
   first = c.to_dict()
-  assert protocol.resolve(c).to_dict() == first
+  assert resolved(c).to_dict() == first
   c.budget_s = 50.0
-  protocol.resolve(c)
+  resolved(c)
   assert c.lo.budget_steps == 150
 
 
@@ -105,7 +105,7 @@ def test_a_size_the_table_lacks_is_left_to_the_run_to_measure(tmp_path):
   c = tiny_config()
   protocol.budget(c, 100.0)
   c.step_table = _table(tmp_path, c, names=("lo",))
-  protocol.resolve(c)
+  resolved(c)
   assert c.lo.budget_steps > 0 and c.lo.max_seconds == 0
   # the ray field is missing: it and the stages after it measure themselves
   assert c.ray.budget_steps == 0 and c.ray.max_seconds > 0 and c.hi.max_seconds > 0
@@ -121,14 +121,14 @@ def test_a_protocol_that_does_not_fit_its_budget_is_refused(field, value, match)
   protocol.paper(c)
   c[field] = value
   with pytest.raises(registry.ConfigError, match=match):
-    protocol.resolve(c)
+    resolved(c)
 
 
 def test_the_budget_protocol_needs_seconds():
   c = tiny_config()
   c.protocol = "budget"
   with pytest.raises(registry.ConfigError, match=r"budget_s=0.0 with protocol='budget'"):
-    protocol.resolve(c)
+    resolved(c)
 
 
 def test_keys_follow_sizes_not_scene_names():
@@ -181,7 +181,7 @@ def test_budgeted_runs_train_exactly_their_counts(scene_root, tmp_path):
   c.step_table = _table(tmp_path, c, setup_s={"lo": 0.0, "ray": 0.0, "hi": 0.0})
   c.eval.front_s = (0.25, 1.105, 1.5)
   c.lo.eval_every_s, c.hi.eval_every_s = 0.5, 0.4
-  protocol.resolve(c)
+  resolved(c)
   # lo: 1.0 s / 0.1; ray: 0.2 s / 0.01; hi: 0.8 s / 0.2
   assert (c.lo.budget_steps, c.ray.budget_steps, c.hi.budget_steps) == (10, 20, 4)
   infos = pipeline.run(finish(c), str(tmp_path / "run"))
@@ -213,7 +213,7 @@ def test_a_self_measured_stage_fixes_its_count_once_and_keeps_it(scene_root, tmp
   c.hi.update(steps=10 ** 4, eval_every=0, checkpoint_every=10 ** 4, log_every=100)
   protocol.budget(c, 3.0)
   c.step_table = str(tmp_path / "empty.json")
-  protocol.resolve(c)
+  resolved(c)
   assert c.hi.max_seconds == pytest.approx(3.0)
   wd = str(tmp_path / "run")
   infos = pipeline.run(finish(c), wd)

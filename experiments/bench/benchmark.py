@@ -91,7 +91,7 @@ def configure(suite: suites.Suite, scene: suites.Scene, method: str, seed: int, 
     for n in names:  # on the reference clock: the same steps on any machine
       fields[f"{n}.eval_every_s"] = suite.budget_s / suite.curve_points
   else:
-    parts = protocol.split(first, suite.steps)
+    parts = protocol.split(first, suite.steps, names)
     for n in names:
       fields[f"{n}.steps"] = max(1, round(parts[n]))
       # the curve's points evenly spread over the method's steps

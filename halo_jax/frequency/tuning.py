@@ -18,7 +18,7 @@ import numpy as np
 
 from halo_jax import frozen, progress, protocol
 from halo_jax.frequency import spectrum, view_pairs
-from halo_jax.stages import base, collapse
+from halo_jax.stages import base, collapse, order
 from halo_jax.stages.state import load
 
 
@@ -71,7 +71,7 @@ def point_config(config, L, scale):
   c.lo.max_seconds = float(c.tune.lo_seconds)
   if c.tune.lo_steps:
     c.lo.steps = c.tune.lo_steps
-  return frozen.freeze(protocol.resolve(c))
+  return frozen.freeze(protocol.resolve(c, order.graph(c)))
 
 
 def point_dir(workdir, L, scale):

@@ -33,7 +33,7 @@ def requires(config, name):
   """Finished stages this stage reads: its sampler's, its terms', Lo-NeRF
   for init_from_lo."""
   cfg = config[name]
-  needs = set(_sampler(cfg).needs)
+  needs = set(samplers.SAMPLERS.get(cfg.sampler.kind, f"{name}.sampler.kind").needs)
   for _, term in terms.active_terms(cfg):
     needs.update(term.needs(cfg))
   if cfg.init_from_lo:
