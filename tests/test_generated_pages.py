@@ -161,3 +161,14 @@ def test_every_typed_gpu_figure_is_a_dated_record_of_a_named_commit():
       subprocess.run(["git", "-C", REPO, "cat-file", "-e", f"{c}^{{commit}}"], check=True)
     checked += 1
   assert checked >= 3
+
+
+def test_the_readme_ci_sentence_is_the_newest_ci_record(tmp_path):
+  from experiments.bench import ci_records
+  newest = ci_records.newest()
+  assert newest, "results/ci holds no CI record"
+  readme = tmp_path / "README.md"
+  readme.write_text(_read(os.path.join(REPO, "README.md")))
+  assert report.update_readme(str(readme), ci_records.readme_sentence(newest), "ci"), \
+      "README.md lost its <!-- ci:begin --> / <!-- ci:end --> lines"
+  _same(os.path.join(REPO, "README.md"), readme.read_text(), "python -m experiments.report")

@@ -31,7 +31,8 @@ import sys
 from absl import flags
 import numpy as np
 
-from experiments.bench import budget_report, code_version, fronts_report, report_common, tool
+from experiments.bench import (budget_report, ci_records, code_version, fronts_report,
+                               report_common, tool)
 from experiments.bench.paths import REPO
 from experiments.bench.report_common import (BASELINE, METHOD_ORDER, collapsed_methods,
                                           in_method_order, stat)
@@ -352,10 +353,12 @@ def readme_block(all_suites, docs=None, versions=None, budget_line=""):
   return "\n".join(out).rstrip("\n")
 
 
-def update_readme(path, block):
+def update_readme(path, block, marker="results"):
+  """Replaces what README `path` holds between its `<!-- marker:begin -->`
+  and `<!-- marker:end -->` lines by `block`; False where it has no such lines."""
   with open(path) as f:
     text = f.read()
-  pattern = re.compile(r"(<!-- results:begin -->)\n.*?(<!-- results:end -->)", re.S)
+  pattern = re.compile(rf"(<!-- {marker}:begin -->)\n.*?(<!-- {marker}:end -->)", re.S)
   if not pattern.search(text):
     return False
   with open(path, "w") as f:
@@ -378,6 +381,9 @@ def main(argv):
   if FLAGS.readme and update_readme(FLAGS.readme, readme_block(suites, FLAGS.docs, versions,
                                                                 budget_line)):
     print("updated", FLAGS.readme)
+  ci = ci_records.newest()
+  if FLAGS.readme and ci and update_readme(FLAGS.readme, ci_records.readme_sentence(ci), "ci"):
+    print("updated", FLAGS.readme, "CI sentence from", os.path.relpath(ci.path, REPO))
 
 
 def cli():

@@ -1,0 +1,36 @@
+"""CI records (results/ci): parsed from what `.ci/run` printed, the newest
+chosen by date, and a file that is not one refused with its name."""
+import pytest
+
+from experiments.bench import ci_records
+
+TEXT = """CI (.ci/run) on a fresh clone of abc1234, 2 CPU cores (AMD EPYC family 26), 2026-11-30, without the datasets:
+650 passed, 16 skipped, 1 failed, 2 warnings in 545.50s (0:09:05)
+real	10m2.250s
+"""
+
+
+def test_a_record_parses_into_its_figures():
+  r = ci_records.parse(TEXT, "x.txt")
+  assert (r.commit, r.date, r.conditions) == ("abc1234", "2026-11-30", "without the datasets")
+  assert r.machine == "2 CPU cores (AMD EPYC family 26)"
+  assert r.counts == {"passed": 650, "skipped": 16, "failed": 1}
+  assert (r.tests_s, r.total_s) == (545.5, 602.25)
+  line = ci_records.readme_sentence(r)
+  assert "10 min 2 s" in line and "9 min 6 s in the tests" in line
+  assert "650 passed, 16 skipped, 1 failed" in line
+
+
+def test_the_newest_record_is_the_latest_date(tmp_path):
+  (tmp_path / "abc1234.txt").write_text(TEXT)
+  (tmp_path / "def5678.txt").write_text(TEXT.replace("abc1234", "def5678")
+                                        .replace("2026-11-30", "2026-11-29"))
+  assert ci_records.newest(str(tmp_path)).commit == "abc1234"
+  assert ci_records.newest(str(tmp_path / "none")) is None
+
+
+@pytest.mark.parametrize("broken", ["", TEXT.replace("real", "user"),
+                                    TEXT.replace(" in 545.50s", "")])
+def test_a_file_that_is_not_a_record_is_named(tmp_path, broken):
+  with pytest.raises(ValueError, match="bad.txt: not a CI record"):
+    ci_records.parse(broken, "bad.txt")
