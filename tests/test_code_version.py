@@ -53,7 +53,10 @@ def test_records_pool_by_fingerprint_and_the_rest_is_set_aside(tmp_path):
   modified = rec("halo", dirty=True, code_dirty=True)
   old_modified = rec("halo", dirty=True)          # an old record: no code_dirty field
   docs_only = rec("halo", dirty=True, code_dirty=False)
-  unmeasured = rec("halo", code_tree="0" * 12)
+  unmeasured = rec("halo", code_tree="0" * 12, commit="0" * 40)  # no commit git knows
+  # a record's commit measured again, under today's definition of its tree
+  remeasured = rec("halo", code_tree="0" * 12)
+  assert code_version.of_record(remeasured, table) == table[tree]["methods"]["halo"]
   assert code_version.of_record(docs_only, table) == table[tree]["methods"]["halo"]
   assert code_version.of_record(modified, table) == code_version.MODIFIED
   assert code_version.of_record(old_modified, table) == code_version.MODIFIED
@@ -140,3 +143,30 @@ def test_a_change_to_one_kinds_recipe_leaves_the_other_kinds_current():
   assert code_version.of_record(rec("old", "configs/blender.py:lego_8view_cpu"), table) == old_name
   assert code_version.of_record(rec("old", "configs/llff.py:fern_4view_cpu"), table) == old_name
   assert code_version.of_record(rec("new", "configs/llff.py:fern_4view_cpu"), table) == new_name
+
+
+def test_the_step_table_is_data_not_code(tmp_path):
+  """A commit that changes only the committed step table keeps its code tree
+  (HEAD stays measured when new keys are measured); the earlier definition,
+  which records without a stored tree were keyed by, hashed it in."""
+  repo = str(tmp_path)
+  git = lambda *a: subprocess.run(["git", "-C", repo, *a], check=True, capture_output=True,
+                                  text=True).stdout.strip()
+  git("init", "-q")
+  git("config", "user.email", "t@t"), git("config", "user.name", "t")
+  (tmp_path / "halo_jax").mkdir()
+  (tmp_path / "halo_jax" / "step_table.json").write_text("{}")
+  (tmp_path / "halo_jax" / "loop.py").write_text("x = 1\n")
+  git("add", "-A"), git("commit", "-qm", "a")
+  first = git("rev-parse", "HEAD")
+  (tmp_path / "halo_jax" / "step_table.json").write_text('{"entries": {}}')
+  assert not git_state.git_state(repo)["code_dirty"]  # a table edit leaves the code clean
+  git("commit", "-qam", "b")
+  table_only = git("rev-parse", "HEAD")
+  (tmp_path / "halo_jax" / "loop.py").write_text("x = 2\n")
+  assert git_state.git_state(repo)["code_dirty"]
+  git("commit", "-qam", "c")
+  code = git("rev-parse", "HEAD")
+  tree = lambda c, **k: git_state.code_tree(c, repo, **k)
+  assert tree(first) == tree(table_only) != tree(code)
+  assert tree(first, with_data=True) != tree(table_only, with_data=True)

@@ -178,10 +178,20 @@ def modified(rec: dict) -> bool:
 
 def tree_of(rec: dict):
   """The code tree of a record's commit: stored, or computed from the commit
-  (None where git does not know it)."""
+  as trees were defined when records stored none (None where git does not
+  know it)."""
   git = rec.get("provenance", {}).get("git", {})
-  return git.get("code_tree") or (git_state.code_tree(git["commit"]) if git.get("commit")
-                                  else None)
+  return git.get("code_tree") or (git_state.code_tree(git["commit"], with_data=True)
+                                  if git.get("commit") else None)
+
+
+def _trees_of(rec: dict):
+  """The keys a record's code may be measured under, in turn: its tree, and
+  its commit's tree by today's definition (an old commit measured again)."""
+  yield tree_of(rec)
+  commit = rec.get("provenance", {}).get("git", {}).get("commit")
+  if commit:
+    yield git_state.code_tree(commit)
 
 
 def _measurements(entry: dict):
@@ -237,9 +247,9 @@ def of_record(rec: dict, table: dict) -> str:
   tree's class: `classes`), or MODIFIED / UNMEASURED."""
   if modified(rec):
     return MODIFIED
-  tree = tree_of(rec)
   kind = kind_of(rec.get("config", ""))
-  return (classes(rec.get("method"), table, kind).get(tree) if tree else None) or UNMEASURED
+  measured = classes(rec.get("method"), table, kind)
+  return next((measured[t] for t in _trees_of(rec) if t in measured), UNMEASURED)
 
 
 def newest(table: dict):

@@ -20,6 +20,12 @@ from experiments.bench.paths import REPO
 TRAINING_CODE = ("halo_jax", "configs", "experiments/benchmark.py", "experiments/suites.py",
                  "experiments/bench/benchmark.py", "experiments/bench/suites.py",
                  "experiments/bench/fingerprint.py")
+# Data beside the code, not code: the committed step table turns a budget into
+# step counts, which a record keeps (its protocol summary) and the fingerprint
+# entry's digests follow (code_version.step_table_digests); the fingerprint run
+# measures its own table. Left out, a commit that measures new keys keeps its
+# code's tree, so HEAD stays measured. Trees before TABLE_OUT hashed it in.
+DATA_FILES = ("halo_jax/step_table.json",)
 
 def _git(repo, *args) -> str:
   return subprocess.run(["git", "-C", repo, *args], capture_output=True, text=True,
@@ -27,28 +33,40 @@ def _git(repo, *args) -> str:
 
 
 @functools.lru_cache(maxsize=None)
-def code_tree(commit: str, repo: str = REPO):
-  """12 hex digits naming the contents of TRAINING_CODE at `commit` (a hash
-  of their git blob ids), or None where git cannot say. Commits that touched
-  none of those files share it."""
+def code_tree(commit: str, repo: str = REPO, with_data: bool = False):
+  """12 hex digits naming the contents of TRAINING_CODE but DATA_FILES at
+  `commit` (a hash of their git blob ids), or None where git cannot say.
+  Commits that touched none of those files share it. with_data: the earlier
+  definition, DATA_FILES hashed in (the key of records that stored no tree)."""
+  if len(commit) == 40:  # a full hash names one tree for good
+    return _code_tree(commit, repo, with_data)
+  return _code_tree.__wrapped__(commit, repo, with_data)
+
+
+@functools.lru_cache(maxsize=None)
+def _code_tree(commit, repo, with_data):
   try:
     listing = _git(repo, "ls-tree", "-r", commit, "--", *TRAINING_CODE)
   except (OSError, subprocess.SubprocessError):
     return None
+  if not with_data:
+    listing = "\n".join(l for l in listing.splitlines()
+                        if l.split("\t", 1)[-1] not in DATA_FILES)
   return hashlib.sha1(listing.encode()).hexdigest()[:12] if listing else None
 
 
 def git_state(repo: str = REPO) -> dict:
   """{'commit', 'dirty', 'code_tree', 'code_dirty'} of the checkout holding the code.
 
-  dirty: any tracked file modified; code_dirty: a file of TRAINING_CODE
-  modified or added, so that `code_tree` (the commit's) does not describe the
+  dirty: any tracked file modified; code_dirty: a file of TRAINING_CODE (but
+  DATA_FILES) modified or added, so that `code_tree` (the commit's) does not describe the
   code that ran. None where the code is not in a git checkout (an installed wheel).
   """
   try:
     commit = _git(repo, "rev-parse", "HEAD")
     dirty = bool(_git(repo, "status", "--porcelain", "--untracked-files=no"))
-    code_dirty = bool(_git(repo, "status", "--porcelain", "--", *TRAINING_CODE))
+    code_dirty = bool(_git(repo, "status", "--porcelain", "--", *TRAINING_CODE,
+                           *(f":(exclude){f}" for f in DATA_FILES)))
   except (OSError, subprocess.SubprocessError):
     return {"commit": None, "dirty": None, "code_tree": None, "code_dirty": None}
   return {"commit": commit, "dirty": dirty, "code_tree": code_tree(commit, repo),
