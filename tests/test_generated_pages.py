@@ -172,3 +172,11 @@ def test_the_readme_ci_sentence_is_the_newest_ci_record(tmp_path):
   assert report.update_readme(str(readme), ci_records.readme_sentence(newest), "ci"), \
       "README.md lost its <!-- ci:begin --> / <!-- ci:end --> lines"
   _same(os.path.join(REPO, "README.md"), readme.read_text(), "python -m experiments.report")
+
+
+def test_the_stability_page_is_its_record():
+  from experiments import stability
+  with open(stability.RECORD) as f:
+    record = json.load(f)
+  assert all(row["ok"] for row in record["rows"]), "a stability row failed when recorded"
+  _same(stability.PAGE, stability.page(record), "python -m experiments.stability --report_only")
