@@ -9,18 +9,31 @@ imports no jax. Where HALO_JAX_PYTHON names a Python with halo-jax, the
 method runs there (nerfbaselines_venv.py); else nerfbaselines' conda
 backend builds an environment and installs this source tree into it.
 """
+import importlib.util
 import os
 import sys
 
 from nerfbaselines import register
 
-# nerfbaselines loads this file in its own process and then imports the
-# method class by module name (`method_class` below): the one place the
-# source tree goes on the import path, since halo-jax is not installed there.
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-if ROOT not in sys.path:
-  sys.path.insert(0, ROOT)
 
+
+def _source_package():
+  """nerfbaselines loads this file in its own process and environment, where
+  halo-jax is not installed, and then imports the method class by module
+  name (`method_class` below): there the package is loaded from this source
+  tree by its location (nothing is added to the import path)."""
+  if importlib.util.find_spec("halo_jax") is not None:
+    return
+  folder = os.path.join(ROOT, "halo_jax")
+  spec = importlib.util.spec_from_file_location(
+      "halo_jax", os.path.join(folder, "__init__.py"), submodule_search_locations=[folder])
+  package = importlib.util.module_from_spec(spec)
+  sys.modules["halo_jax"] = package
+  spec.loader.exec_module(package)
+
+
+_source_package()
 from halo_jax.integrations import nerfbaselines_datasets, nerfbaselines_info  # noqa: E402
 
 _METADATA = {
