@@ -23,8 +23,6 @@ from absl import flags
 from experiments.bench import ci_records, code_version, tool
 
 FLAGS = flags.FLAGS
-flags.DEFINE_string("conditions", "", "What else the machine had: data, other jobs (required).")
-flags.DEFINE_bool("dry_run", False, "Print the record's header; run nothing.")
 
 
 def _header(commit: str) -> str:
@@ -34,6 +32,12 @@ def _header(commit: str) -> str:
   date = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d")
   return (f"CI (.ci/run) on a fresh clone of {commit}, {cores} CPU cores ({cpu} family "
           f"{family}), {date}, {FLAGS.conditions}:")
+
+
+def define_flags():
+  """The tool's flags, defined on launch (tests import this module beside others)."""
+  flags.DEFINE_string("conditions", "", "What else the machine had: data, other jobs (required).")
+  flags.DEFINE_bool("dry_run", False, "Print the record's header; run nothing.")
 
 
 def main(argv):
@@ -67,4 +71,5 @@ def main(argv):
 
 
 if __name__ == "__main__":
+  define_flags()
   tool.run(sys.modules[__name__], main)

@@ -24,9 +24,6 @@ from experiments.bench.paths import REPO
 RECORD = os.path.join(REPO, "results", "stability.json")
 PAGE = os.path.join(REPO, "docs", "results", "stability.md")
 
-flags.DEFINE_bool("record", False, f"Keep the rows in {os.path.relpath(RECORD, REPO)} and "
-                  f"write {os.path.relpath(PAGE, REPO)}.")
-flags.DEFINE_bool("report_only", False, "Run nothing: write the page from the kept record.")
 FLAGS = flags.FLAGS
 
 
@@ -63,6 +60,13 @@ def page(record) -> str:
       table(record["rows"]), ""])
 
 
+def define_flags():
+  """The tool's flags, defined on launch (tests import this module beside others)."""
+  flags.DEFINE_bool("record", False, f"Keep the rows in {os.path.relpath(RECORD, REPO)} and "
+                    f"write {os.path.relpath(PAGE, REPO)}.")
+  flags.DEFINE_bool("report_only", False, "Run nothing: write the page from the kept record.")
+
+
 def main(argv):
   del argv
   if FLAGS.report_only:
@@ -85,4 +89,5 @@ def main(argv):
 
 
 if __name__ == "__main__":
+  define_flags()
   tool.run(sys.modules[__name__], main)

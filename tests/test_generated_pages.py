@@ -126,17 +126,22 @@ def test_viewer_latency_page():
         "python -m experiments.viewer_check (it re-times the viewer)")
 
 
-def test_the_readme_main_job_table(tmp_path):
-  """The README's main-job table is halo-compare's own table of the committed
-  run (results/main_job/default.json)."""
-  from halo_jax.cli import compare
-  with open(os.path.join(RESULTS, "main_job", "default.json")) as f:
-    run = json.load(f)
-  table = compare.write_report(run["methods"], str(tmp_path), run["num_test_views"])
-  rows = [l for l in table.splitlines() if l.startswith("|")]
-  readme = _read(os.path.join(REPO, "README.md"))
-  assert "\n".join(rows) in readme, "README's main-job table: paste it from " \
-      "`halo-compare --config=configs/default.py --workdir=DIR` (DIR/results.md)"
+def test_the_readme_main_job_block_is_its_record(tmp_path):
+  """The README's main-job block (halo-compare's own table and lines, its time,
+  the plot) is made from the committed run (results/main_job/default.json),
+  and that run is the README's command."""
+  from experiments import main_job
+  with open(main_job.RECORD) as f:
+    record = json.load(f)
+  readme = tmp_path / "README.md"
+  readme.write_text(_read(os.path.join(REPO, "README.md")))
+  assert report.update_readme(str(readme), main_job.block(record), "main_job"), \
+      "README.md lost its <!-- main_job:begin --> / <!-- main_job:end --> lines"
+  _same(os.path.join(REPO, "README.md"), readme.read_text(),
+        "python -m experiments.main_job --report_only")
+  assert record["command"] == main_job.COMMAND and main_job.COMMAND in _read(
+      os.path.join(REPO, "README.md")), "the README's main command is not the recorded one"
+  assert not any("constant" in str(r.get("heldout_learned")) for r in record["methods"].values())
 
 
 def test_every_typed_gpu_figure_is_a_dated_record_of_a_named_commit():

@@ -9,8 +9,17 @@ all on the same held-out views and writes DIR/results.json, results.md and
 psnr_vs_time.png. --all_views_reference also trains nerf_tuned on every
 training view (the upper reference). Launched again with the same flags, a
 killed run resumes each method from its last checkpoint.
+
+Each method trains in a process of its own pinned to one core, as many at
+once as the launch has cores (--at_once): a method's figures then follow its
+steps and one core's arithmetic, whatever the machine's core count. Its
+progress bars go to DIR/<method>/progress.log; the command's own bar counts
+the methods.
 """
+import concurrent.futures
+import contextlib
 import json
+import multiprocessing
 import os
 import sys
 
@@ -20,7 +29,7 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # pylint: disable=g-import-not-at-top
 
-from halo_jax import datasets, methods, pipeline, runs, tables
+from halo_jax import datasets, methods, pipeline, progress, runs, tables
 from halo_jax.cli import run_app, config_of_flags, define_config_flag, launch
 
 FLAGS = flags.FLAGS
@@ -35,6 +44,8 @@ def define_flags():
   flags.DEFINE_list("methods", list(methods.with_role(methods.base.COMPARED)),
                     "Methods to train (names in halo_jax.methods.METHODS); results of others "
                     "already in DIR/results.json are kept.")
+  flags.DEFINE_integer("at_once", 0, "Methods trained at once, one core each (0: as many as "
+                       "the launch has cores; 1: one after another, still on one core).")
   flags.mark_flags_as_required(["config", "workdir"])
 
 
@@ -63,6 +74,25 @@ def method_configs(load, names, all_views):
   return out
 
 
+def reach_lines(results, lead="halo") -> str:
+  """A line per other method: when `lead`'s held-out curve first reached that
+  method's last curve point (both on the curve views, the reference clock),
+  and the share of the other's time that is; '' without `lead` or curves."""
+  if lead not in results or not results[lead].get("curve"):
+    return ""
+  lines = []
+  for name, r in results.items():
+    if name == lead or not r.get("curve"):
+      continue
+    end_s, end_psnr = r["curve"][-1]
+    t = runs.seconds_to_reach([results[lead]], end_psnr)
+    reached = (f"at {t:.0f} s, {t / end_s:.2f} of its time" if t is not None
+               else "not within its run")
+    lines.append(f"- {lead} reaches {name}'s final curve PSNR ({end_psnr:.2f} dB at "
+                 f"{end_s:.0f} s) {reached}.")
+  return "\n" + "\n".join(lines) + "\n" if lines else ""
+
+
 def write_report(results, workdir, n_test):
   dynamic = any("flicker" in r for r in results.values())
   level = runs.common_level(list(results.values()))
@@ -87,7 +117,8 @@ def write_report(results, workdir, n_test):
     note += (f" 's to {level:.1f} dB': reference seconds until the held-out curve (the first "
              f"eval.curve_views views) first reached {level:.1f} dB, 0.5 dB under the lowest "
              "curve peak of all methods.")
-  table = tables.markdown(header, rows) + f"\n\n({n_test} held-out views.{note})\n"
+  table = (tables.markdown(header, rows) + f"\n\n({n_test} held-out views.{note})\n"
+           + reach_lines(results))
   with open(os.path.join(workdir, "results.md"), "w") as f:
     f.write(table)
   plt.figure(figsize=(6, 4))
@@ -110,6 +141,46 @@ def main(argv):
     run(FLAGS.config)
 
 
+def _pin(cores):
+  """A worker's start: one core of its own, taken before JAX starts its
+  thread pool, so XLA computes with one thread."""
+  if hasattr(os, "sched_setaffinity"):
+    os.sched_setaffinity(0, {cores.get()})
+
+
+def _train(name, cfg, workdir):
+  """One method in its worker: (name, held-out views, its record). Its bars
+  and XLA's messages go to <workdir>/<name>/progress.log."""
+  folder = os.path.join(workdir, name)
+  os.makedirs(folder, exist_ok=True)
+  with open(os.path.join(folder, "progress.log"), "a") as log:
+    os.dup2(log.fileno(), 2)
+    with contextlib.redirect_stderr(log):
+      dataset = datasets.load(cfg.data, folder)
+      return name, len(dataset.test.names), runs.run_method(cfg, folder, dataset)
+
+
+def _cores() -> list:
+  return sorted(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else [0]
+
+
+def train_all(configs, workdir, at_once=0):
+  """Yields (name, held-out views, record) of each method of `configs`
+  ({name: config}) as it finishes, `at_once` at a time (0: one per core of
+  this launch), each worker pinned to a core of its own."""
+  cores = _cores()
+  width = max(1, min(at_once or len(cores), len(cores), len(configs)))
+  ctx = multiprocessing.get_context("spawn")  # a fresh JAX in each worker
+  queue = ctx.Queue()
+  for core in cores[:width]:
+    queue.put(core)
+  with concurrent.futures.ProcessPoolExecutor(width, mp_context=ctx, initializer=_pin,
+                                              initargs=(queue,)) as pool:
+    todo = [pool.submit(_train, name, cfg, workdir) for name, cfg in configs.items()]
+    for done in concurrent.futures.as_completed(todo):
+      yield done.result()
+
+
 def run(config):
   """The experiment in FLAGS.workdir (locked by main); `config` is --config's
   scene, which each method is made from (cli.config_of_flags)."""
@@ -122,14 +193,26 @@ def run(config):
   n_test = 0
   del config
   load = lambda name, fields: config_of_flags(FLAGS["config"], name, fields)  # pylint: disable=unnecessary-lambda-assignment
-  for name, cfg in method_configs(load, FLAGS.methods, FLAGS.all_views_reference).items():
-    dataset = datasets.load(cfg.data, os.path.join(FLAGS.workdir, name))
-    n_test = len(dataset.test.names)
-    results[name] = runs.run_method(cfg, os.path.join(FLAGS.workdir, name), dataset)
+  configs = method_configs(load, FLAGS.methods, FLAGS.all_views_reference)
+  # the data checked, and a built-in scene generated, here once, before the workers share it
+  name, first = next(iter(configs.items()))
+  datasets.load(first.data, os.path.join(FLAGS.workdir, name))
+  print(f"training {', '.join(configs)}; each method's progress: "
+        f"{os.path.join(FLAGS.workdir, '<method>', 'progress.log')}", file=sys.stderr)
+  finished = progress.steps(train_all(configs, FLAGS.workdir, FLAGS.at_once), "methods",
+                            "halo-compare", total=len(configs))
+  for name, n_test, record in finished:
+    results[name] = record
+    print(f"{name}: held-out PSNR {record['psnr']:.2f} after {record['reference_s']:.0f} "
+          f"reference s ({record['wall_s']:.0f} s here)", file=sys.stderr)
     with open(results_path, "w") as f:
       json.dump(results, f, indent=1)
-  print(write_report(results, FLAGS.workdir, n_test))
-  collapsed = [f"{n} ({r['collapsed']['stage']})" for n, r in results.items() if "collapsed" in r]
+  ordered = {n: results[n] for n in configs}
+  ordered.update({n: r for n, r in results.items() if n not in configs})
+  with open(results_path, "w") as f:
+    json.dump(ordered, f, indent=1)
+  print(write_report(ordered, FLAGS.workdir, n_test))
+  collapsed = [f"{n} ({r['collapsed']['stage']})" for n, r in ordered.items() if "collapsed" in r]
   if collapsed:
     print(f"error: {len(collapsed)} method(s) learned nothing: {', '.join(collapsed)} "
           "(a stage no better than the best constant image on its training rays; "
