@@ -185,3 +185,10 @@ def test_the_stability_page_is_its_record():
     record = json.load(f)
   assert all(row["ok"] for row in record["rows"]), "a stability row failed when recorded"
   _same(stability.PAGE, stability.page(record), "python -m experiments.stability --report_only")
+
+
+def test_the_toy_page_is_its_records():
+  from experiments import toy2d
+  records = toy2d.records()
+  assert toy2d.RECORD in records, "results/toy2d.json (the paper-size toy) is missing"
+  _same(toy2d.PAGE, toy2d.page(records), "python -m experiments.toy2d --report_only")
