@@ -17,7 +17,7 @@ opaque.
 The scene folder defaults to $HALO_DATA/stanford_lf/<scene>.
 """
 
-from halo_jax import config_files, defaults
+from halo_jax import config_files, defaults, light_field_defaults
 
 TRAIN = "04_04,04_12,12_04,12_12"
 TEST = "08_06,08_10,06_08,10_08"
@@ -34,7 +34,7 @@ def get_config(arg: str = "knights"):
                 white_background=False,
                 root=defaults.data_root("stanford_lf", parts[0]))
   hi = c.hi
-  defaults.light_field_stage(hi)
+  light_field_defaults.light_field_stage(hi)
   # Training rays composited onto a random colour (the authors' code): every
   # ray must end in something opaque, as every pixel of these scenes is; the
   # baseline gets it too (docs/scene_kinds.md).

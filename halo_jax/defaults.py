@@ -9,14 +9,15 @@ import os
 import ml_collections
 
 
-def _model(width=256, depth=8, use_viewdirs=False):
+def model_section(width=256, depth=8, use_viewdirs=False):
+  """An MLP's fields (a NeRF's trunk, the ray fields')."""
   return ml_collections.ConfigDict(dict(
       width=width, depth=depth, skips=(4,), use_viewdirs=use_viewdirs, dir_freqs=4,
       density_bias=-1.0))
 
 
 def _nerf_model(use_viewdirs):
-  m = _model(use_viewdirs=use_viewdirs)
+  m = model_section(use_viewdirs=use_viewdirs)
   m.kind = "nerf"                    # models.MODELS: 'nerf', 'deform' (times), 'epi' (light fields)
   m.density_activation = "softplus"  # or 'relu' (the original NeRF)
   # the trunk's matmul dtype, 'float32' or 'bfloat16' (models.COMPUTE_DTYPES)
@@ -119,6 +120,19 @@ def _radiance_stage(L, scale, use_viewdirs, steps, num_samples, sampler):
   return cfg
 
 
+def teach_section() -> ml_collections.ConfigDict:
+  """L_teach's settings (stages/teach.py; weight 0: off, methods/halo_teach.py
+  switches it on): its weight at the stage's first step (falling linearly to
+  0 at its last); bank rays Hi renders a step; samples a ray (Lo's bank and
+  Hi's render); random rays Lo renders once, twice with their neighbours; Lo
+  is sure where its opacity is at least acc_min on the ray and its neighbour,
+  at depths depth_tol of the range apart; the neighbour is the ray time_step
+  later (dynamic) or turned by jitter radians (static)."""
+  return ml_collections.ConfigDict(dict(
+      weight=0.0, num_rays=256, num_samples=64, bank_rays=65536, acc_min=0.95,
+      depth_tol=0.02, time_step=0.02, jitter=0.002))
+
+
 def _hi_extras(cfg):
   """The fields only the output stage reads: HALO's regularisers and sampler
   options, and the baselines' (FreeNeRF's) terms, all off here."""
@@ -141,63 +155,8 @@ def _hi_extras(cfg):
   # num_near samples nearest the camera (weight 0: off).
   cfg.freq_reg = ml_collections.ConfigDict(dict(end=0.0))
   cfg.occlusion = ml_collections.ConfigDict(dict(weight=0.0, num_near=10))
-  return cfg
-
-
-def light_field_stage(cfg):
-  """Turns a radiance stage into the two-plane light-field stage (trainer
-  'light_field', model 'epi') and adds the fields only it reads."""
-  cfg.kind = "light_field"
-  cfg.model.kind = "epi"
-  # Composite training rays onto a random colour per ray, so partial opacity
-  # costs (the authors' light-field code).
-  cfg.random_background = False
-  # Gaussian Fourier features of the EPI point (s', t', theta) and the view
-  # (u, v): the authors' feature counts. Its stds are the authors', whose features
-  # are sin(f x) with s, t in pixels / 1024 (the image spans 1): their st std
-  # 64 is our 5.09 (encoding.fourier_std_from_angular(64, 1)); their theta
-  # std 8 over their ~1 rad range makes ~0.8 cycles across it, ours over the
-  # knights' 0.19 rad ~1. The colour gets the raw (u, v) (uv_features=0; the
-  # input itself always reaches the colour), as the authors' colour reads
-  # only its lowest sin/cos pair.
-  # *_kind: each input's encoder (encoding.fourier_encode): 'gaussian'
-  # matrices, or the authors' 'axis' (NormalEmbedder) or 'octaves'
-  # (BaseEmbedder, std read as the scale); the colour reads the lowest
-  # uv_features of uv_drawn.
-  cfg.fourier = ml_collections.ConfigDict(dict(
-      st_std=5.09, st_features=10, theta_std=8.0, theta_features=5, uv_std=1.0,
-      uv_features=0, uv_drawn=0, st_kind="gaussian", theta_kind="gaussian",
-      uv_kind="gaussian", seed=0))
-  cfg.model.color_width = 0   # the colour's hidden layer (0: half the width)
-  cfg.joint.update(
-      # L_consist's tau_nerf: 'expected' (the paper) or 'max_weight'
-      target="expected",
-      # share of the samples stratified over the whole range instead of the
-      # window (0: the paper's formula; the authors' code uses 0.5), so
-      # density outside the window can still form
-      full_range=0.0,
-      # rays per step drawn between the training cameras (uv in their box, st
-      # anywhere) on which the ray field alone follows the radiance field
-      # (0: none, the paper; the authors' code uses 512 with batches of 3072)
-      random_rays=0,
-      # weight of the ray field's own colour loss (0: no colour head, the
-      # paper); above 0 it is trained on the pixels and, on the random rays,
-      # on the radiance field's colour (the authors' code, weight 1)
-      color_weight=0.0,
-      # L_consist's weight into the radiance field (its tau pulled towards the
-      # ray field's). The paper's formula has no stop-gradient; the authors'
-      # code trains only the ray field (0)
-      nerf_consist_weight=0.0,
-      # the ray field: 'oblique' (ray_fields.EPIRayField, Gaussian features
-      # of (u, v, s, t); uv_std, where not 0, replaces std for (u, v)) or
-      # 'nelf' (the authors' NeLFRayField: num_features per coordinate of
-      # kind uv_kind, st_kind; its colour reads (u, v)'s features with color_uv)
-      field="oblique", uv_kind="axis", st_kind="axis", color_uv=True,
-      # render the random rays over the whole range instead of the current
-      # window (blended samplers only; the authors' LLFF code)
-      random_full=False,
-      std=1.0, uv_std=0.0, num_features=16, seed=0, model=_model(width=128, depth=4))
-  cfg.joint.model.skips = ()
+  # L_teach (stages/teach.py; methods/halo_teach.py): Hi follows Lo where Lo is sure
+  cfg.teach = teach_section()
   return cfg
 
 
@@ -277,7 +236,7 @@ def _ray_stage():
   r = ml_collections.ConfigDict(_train(24000, 4096, 5e-4, 5e-6))
   r.kind = "ray_field"
   r.encoding = ml_collections.ConfigDict(dict(L=10, scale=32.0))
-  r.model = _model()
+  r.model = model_section()
   r.radius = 0.0              # sphere of the ray parametrisation (0: camera radius)
   r.depth_target = "max_weight"  # one of raycast.DEPTH_TARGETS
   r.acc_weight = 1.0          # L_ray's opacity term (0: depth alone)

@@ -19,6 +19,7 @@ class Stream(enum.IntEnum):
   RAY_RANDOM_BANK = 2  # the ray field's random hemisphere rays (stages/ray.py)
   RAY_TARGET_RAYS = 3  # which training rays Lo-NeRF labels for the ray field
   UNSEEN_BANK = 5      # L_unseen's bank of points (stages/unseen.py)
+  TEACH_BANK = 6       # L_teach's bank of random rays (stages/teach.py)
 
 
 def stream_seed(seed: int, stream: Stream) -> int:

@@ -41,13 +41,17 @@ TIMELESS = frozenset((
     "collapse.window", "radius", "tau", "schedule_span", "acc_weight", "random_acc"))
 # Weights: only whether the term is on sets the time.
 WEIGHTS = ("weight", "consist_weight", "color_weight", "nerf_consist_weight")
+# Term sections added after the table's keys were measured: they count only
+# while their term is on, so a stage without the term keeps its key.
+LATER_TERMS = ("teach",)
 
 
 def _sizes(config, name) -> dict:
   """The stage's fields that set its step time, dotted."""
   out = {}
+  off = {t for t in LATER_TERMS if t in config[name] and not config[name][t].weight}
   for field, value in config_files.dotted_fields(config[name].to_dict()).items():
-    if field in TIMELESS:
+    if field in TIMELESS or field.split(".", 1)[0] in off:
       continue
     if field.rsplit(".", 1)[-1] in WEIGHTS:
       value = bool(value)

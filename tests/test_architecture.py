@@ -20,7 +20,7 @@ LAYERS = (
      "tensorboard", "video", "image_files", "config_files", "tables", "step_table", "progress",
      "atomic", "frozen"},
     {"models", "ray_fields", "datasets", "checkpoint", "parallel", "evaluate", "defaults",
-     "camera_paths", "frequency.view_pairs",
+     "light_field_defaults", "camera_paths", "frequency.view_pairs",
      "workdir_lock"},
     {"stages", "frequency.tuning", "validate", "methods", "configure", "pipeline", "user_errors",
      "protocol",

@@ -48,6 +48,6 @@ def test_fourier_std_from_angular_matches_cycles_across_the_image():
   assert encoding.fourier_std_from_angular(64.0, 2.0) == 2 * encoding.fourier_std_from_angular(
       64.0, 1.0)
   # the light-field defaults carry the authors' st std 64 converted
-  from halo_jax import defaults  # pylint: disable=g-import-not-at-top
-  np.testing.assert_allclose(defaults.light_field_stage(defaults.base_config().hi).fourier.st_std,
+  from halo_jax import defaults, light_field_defaults  # pylint: disable=g-import-not-at-top
+  np.testing.assert_allclose(light_field_defaults.light_field_stage(defaults.base_config().hi).fourier.st_std,
                              encoding.fourier_std_from_angular(64.0, 1.0), atol=5e-3)

@@ -103,7 +103,7 @@ def test_frequency_calibration_pages(views, tmp_path):
 def test_method_table_block():
   # the columns the page has, as the configs make them now (a method
   # registered since is added when the page is regenerated)
-  page = os.path.join(REPO, "docs", "baselines.md")
+  page = os.path.join(DOCS, "methods.md")
   names = method_table.documented(_read(page))
   assert len(names) >= 9, names
   _same(page, method_table.splice(_read(page), method_table.generate(names)),

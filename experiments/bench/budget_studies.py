@@ -169,8 +169,35 @@ def _knights_steps_study(budget_s: float) -> Study:
       reference="halo", seeds=2, budget="time", front=False, budget_s=budget_s)
 
 
+def _lo_teacher_study(kind: str, budget_s: float) -> Study:
+  """Lo-NeRF as Hi-NeRF's teacher for the whole of Hi's run (L_teach,
+  halo_jax/stages/teach.py) on every validation scene of `kind` ('dynamic':
+  D-NeRF, where Hi ends below its own Lo, first; '360': the static sphere
+  scenes), at one budget of the budget study."""
+  scenes = (tuple(s for s in suites.VALIDATION_SCENES if s.name.startswith("dnerf_"))
+            if kind == "dynamic" else suites.VALIDATION_360)
+  return Study(
+      title=f"Lo-NeRF as Hi-NeRF's teacher ({kind}), {budget_s:g} reference seconds",
+      question=("Whether Hi-NeRF keeps Lo's gain to the end when, on random rays where "
+                "Lo-NeRF is sure of a surface (opaque on the ray and its neighbour in time "
+                "or direction, at one depth), Hi's depth and opacity follow Lo's with a "
+                "weight that falls to 0 at Hi's last step; on every validation scene of "
+                f"the kind ({kind}); nerf_tuned's runs are the budget study's."),
+      scenes=scenes,
+      variants=(
+          Variant("halo", "halo", (("hi.teach.weight", 0.0),), "HALO as it is"),
+          Variant("teach_0.1", "halo+teach", (("hi.teach.weight", 0.1),),
+                  "L_teach at 0.1, falling to 0 over Hi's steps"),
+          Variant("teach_1", "halo+teach", (("hi.teach.weight", 1.0),),
+                  "L_teach at 1, falling to 0 over Hi's steps"),
+      ),
+      reference="halo", seeds=2, budget="time", front=False, budget_s=budget_s)
+
+
 STUDIES = {
     **{f"hi_window_{b:g}": _hi_window_study(b) for b in suites.BUDGET_STUDY.values()},
+    **{f"lo_teacher_{k}_{b:g}": _lo_teacher_study(k, b) for k in ("dynamic", "360")
+       for b in suites.BUDGET_STUDY.values()},
     **{f"ndc_ray_{b:g}": _ndc_ray_study(b) for b in suites.BUDGET_STUDY.values()},
     **{f"dynamic_hi_{b:g}": _dynamic_hi_study(b) for b in suites.BUDGET_STUDY.values()},
     **{f"knights_steps_{b:g}": _knights_steps_study(b) for b in suites.BUDGET_STUDY.values()},

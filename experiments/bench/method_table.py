@@ -1,6 +1,6 @@
 """The table of how the methods differ, per scene kind, from their resolved configs.
 
-  python -m experiments.method_table            # rewrites the table in docs/baselines.md
+  python -m experiments.method_table            # rewrites the table in docs/results/methods.md
   python -m experiments.method_table --check    # exit 1 when the page is out of date
 
 Each scene kind is represented by its CPU protocol's config. A row is a
@@ -18,7 +18,8 @@ from experiments.bench import tool
 from halo_jax.registry import ConfigError
 
 flags.DEFINE_bool("check", False, "Only compare with the page; exit 1 if it differs.")
-flags.DEFINE_string("page", "docs/baselines.md", "The page whose generated block is rewritten.")
+flags.DEFINE_string("page", "docs/results/methods.md",
+                    "The page whose generated block is rewritten.")
 
 # One CPU protocol per scene kind (the row of methods/halo.py's table).
 KINDS = (

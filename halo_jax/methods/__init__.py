@@ -13,7 +13,7 @@ import copy
 
 from halo_jax import datasets, frozen, geometry, registry
 from halo_jax.methods import (freenerf, halo, halo_authors, halo_auto, halo_freenerf, halo_joint,
-                              halo_unseen, nerf_paper, nerf_tuned)
+                              halo_teach, halo_unseen, nerf_paper, nerf_tuned)
 from halo_jax.methods import base
 from halo_jax.methods.base import Method
 
@@ -25,6 +25,7 @@ METHODS.register("freenerf", freenerf.METHOD)
 METHODS.register("halo", halo.METHOD)
 METHODS.register("halo+freenerf", halo_freenerf.METHOD)
 METHODS.register("halo+unseen", halo_unseen.METHOD)
+METHODS.register("halo+teach", halo_teach.METHOD)
 METHODS.register("halo_auto", halo_auto.METHOD)
 METHODS.register("halo_joint", halo_joint.METHOD)
 METHODS.register("halo_authors", halo_authors.METHOD)

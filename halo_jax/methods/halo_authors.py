@@ -56,7 +56,7 @@ import math
 
 import os
 
-from halo_jax import defaults, frozen, geometry
+from halo_jax import frozen, geometry, light_field_defaults
 from halo_jax.methods import base, halo
 
 WINDOW_FINAL = 0.5          # their epi_converge_range: the window's final width share
@@ -132,7 +132,7 @@ LLFF_LR_POWER = 2.0
 NDC = {
     "data.kind": "llff_planes",
     "stages": "hi",
-    "hi": base.Edit(defaults.light_field_stage),
+    "hi": base.Edit(light_field_defaults.light_field_stage),
     "hi.random_background": True,    # their EPINeLFRays' background='random'
     "hi.precrop_steps": 0,
     "hi.empty.weight": 0.0,

@@ -261,6 +261,8 @@ def train(ctx: base.StageContext):
     microbatch.check_parts(cfg, cfg.empty.num_rays, f"{name}.empty.num_rays", ctx.mesh)
   if any(n == "unseen" for n, _ in active):
     microbatch.check_parts(cfg, cfg.unseen.num_points, f"{name}.unseen.num_points", ctx.mesh)
+  if any(n == "teach" for n, _ in active):
+    microbatch.check_parts(cfg, cfg.teach.num_rays, f"{name}.teach.num_rays", ctx.mesh)
   params = _initial_params(ctx)
   t0 = time.perf_counter()
   settings, guide_params = _stage_settings(ctx, cfg)
