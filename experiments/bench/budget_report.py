@@ -353,6 +353,7 @@ def write(all_suites, docs, results="") -> str:
               if m in top), "", f"![{s}]({png})", ""]
   out += every_scene_lines(every_scene(all_suites), budgets[-1])
   if results:
+    out += probe_report.other_scenes_section(results)
     out += probe_report.probe_section(probe_report.probes(results), by_budget, hi_minus_lo,
                                       lead, overfit=falling_curve)
   with open(os.path.join(docs, f"{PAGE}.md"), "w") as f:

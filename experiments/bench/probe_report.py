@@ -12,12 +12,12 @@ from experiments.bench.report_common import BASELINE
 METHOD = "halo"
 
 
-def probes(results) -> dict:
+def probes(results, scenes=suites.BUDGET_SCENES) -> dict:
   """{(budget_s, scene): [probe, ...]} of the study's probe files
-  (budget_probe.py) under `results`."""
+  (budget_probe.py) under `results`, for `scenes`."""
   out = {}
   for name, budget_s in suites.BUDGET_STUDY.items():
-    for scene in suites.BUDGET_SCENES:
+    for scene in scenes:
       folder = os.path.join(results, name, "probe", scene)
       if os.path.isdir(folder):
         out[(budget_s, scene)] = [run_file.read(os.path.join(folder, f))
@@ -223,3 +223,28 @@ def one_at_a_time_lines(in_order) -> list:
             "\"nerf_tuned's sampler\" column changes both the kind and the count): "
             + "; ".join(old) + ". They are read above as they stand until rerun.", ""]
   return out
+
+
+def other_scenes_section(results) -> list:
+  """The probes of the validation scenes beyond the study's four (the 960-s
+  runs on every validation scene): the re-rendered PSNRs and the reading."""
+  others = tuple(s.name for s in suites.VALIDATION_SCENES if s.name not in suites.BUDGET_SCENES)
+  by_key = probes(results, others)
+  if not by_key:
+    return []
+  cols = ("own", "own_twice_samples", "baseline_sampler", "twice_baseline_samples", BASELINE,
+          f"{BASELINE}_twice_samples")
+  out = ["### Probes of the other scenes", "",
+         "The same probe on the pairs of the other validation scenes whose workdirs a "
+         "session kept (seeds in brackets):", "",
+         "| budget | scene | Hi as scored | Hi, 2× its samples | Hi, nerf_tuned's sampler | "
+         "Hi, 2× that | nerf_tuned | nerf_tuned, 2× |", "|---|---|---|---|---|---|---|---|"]
+  in_order = sorted(by_key.items(), key=lambda kv: (others.index(kv[0][1]), kv[0][0]))
+  for (b, scene), ps in in_order:
+    out.append(f"| {b:g} s | {scene} ({', '.join(str(p.get('seed')) for p in ps)}) | "
+               + " | ".join("-" if _mean(ps, "psnr", c) is None
+                            else f"{_mean(ps, 'psnr', c):.2f}" for c in cols) + " |")
+  out.append("")
+  for (b, scene), ps in in_order:
+    out.append(f"- **{scene} at {b:g} s.** {probe_reading(ps)}")
+  return out + [""]
