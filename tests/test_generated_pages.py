@@ -69,8 +69,9 @@ def test_suite_pages_and_the_readme_block(tmp_path):
 def test_study_pages(name):
   path = os.path.join(DOCS, f"ablation_{name}.md")
   if not os.path.isdir(os.path.join(RESULTS, "ablations", name)):
+    # a study without runs yet: what there is to check is that no page claims any
     assert not os.path.exists(path), f"{path}: a page without result files"
-    pytest.skip(f"study {name}: no runs yet")
+    return
   _same(path, ablations.report(name, ablations.STUDIES[name], RESULTS),
         f"python -m experiments.ablations --study={name} --report_only")
 
