@@ -91,6 +91,9 @@ def _radiance_stage(L, scale, use_viewdirs, steps, num_samples, sampler):
       # depth_guided: r falls from window_start over window_steps (0: none); num_full
       # of the samples span all of [near, far], where the window may miss a surface
       window_start=0.0, window_steps=0, num_full=0,
+      # held-out renders of a stage that trained at least dense_eval_after steps
+      # (0: never) use dense_eval_samples stratified samples instead (stages/radiance.py)
+      dense_eval_after=0, dense_eval_samples=64,
   ))
   # L_unseen (stages/unseen.py): mean density at random points that fewer
   # than min_views training cameras see (weight 0: off; methods/halo_unseen.py)

@@ -37,7 +37,8 @@ TIMELESS = frozenset((
     "freq_reg.end", "joint.alpha_final", "joint.alpha_steps", "joint.seed", "fourier.seed",
     "fourier.st_std", "fourier.theta_std", "fourier.uv_std", "joint.std", "joint.uv_std",
     "sampler.window", "sampler.window_start", "sampler.window_steps", "sampler.num_full",
-    "sampler.coarse_weight", "collapse.margin_db", "collapse.after_steps",
+    "sampler.coarse_weight", "sampler.dense_eval_after", "sampler.dense_eval_samples",
+    "collapse.margin_db", "collapse.after_steps",
     "collapse.window", "radius", "tau", "schedule_span", "acc_weight", "random_acc"))
 # Weights: only whether the term is on sets the time.
 WEIGHTS = ("weight", "consist_weight", "color_weight", "nerf_consist_weight")

@@ -70,6 +70,11 @@ def _sampler(cfg, name):
     yield from _positive_int(s.num_coarse, f"{name}.sampler.num_coarse")
   if spec.guided and not 0 < s.window <= 1:
     yield f"{name}.sampler.window={s.window!r}: must be in (0, 1]"
+  after = s.get("dense_eval_after", 0)
+  if not (isinstance(after, int) and after >= 0):
+    yield f"{name}.sampler.dense_eval_after={after!r}: must be an integer >= 0 (0: never)"
+  elif after:
+    yield from _positive_int(s.dense_eval_samples, f"{name}.sampler.dense_eval_samples")
 
 
 def _model(cfg, name):

@@ -13,6 +13,7 @@ import time
 from typing import Any
 
 import jax
+import ml_collections
 
 from halo_jax import evaluate, geometry, lightfield, models, parallel, ray_fields, raycast
 from halo_jax import registry, samplers
@@ -235,10 +236,22 @@ def _eval_closures(ctx, s: StepSettings, guide_params):
       guide_model=s.guide_model, geometry=s.geometry, radius=s.radius,
       block_rays=config.eval.block_rays)
   trains_guide = s.sampler.trains_guide
+  after = cfg.sampler.get("dense_eval_after", 0)
+  render_dense = None
+  if after:
+    dense = ml_collections.ConfigDict(cfg.sampler.to_dict())
+    dense.update(kind="stratified", num_samples=cfg.sampler.dense_eval_samples)
+    render_dense = raycast.make_eval_fn(
+        s.model, dense, near=s.near, far=s.far, white_background=s.white, geometry=s.geometry,
+        radius=s.radius, block_rays=config.eval.block_rays)
 
   def make_eval(p, step):
     step = cfg.steps if step is None else step
     kw = dict(coarse_params=p.get("coarse"), band_fraction=band_fraction(cfg, step))
+    if render_dense is not None and min(step, budget.last_step(cfg)) >= after:
+      # a field trained this long has moved off the window its guide places:
+      # its held-out views are rendered densely over the whole ray
+      return functools.partial(render_dense, p["nerf"], None, **kw)
     if trains_guide:  # the window the joint sampler trains with at this step
       return functools.partial(render_eval, p["nerf"], p["ray"], window=joint_window(cfg, step),
                                **kw)
