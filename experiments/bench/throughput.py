@@ -4,9 +4,10 @@
   python -m experiments.throughput_report   # docs/results/throughput.md from the files
 
 Measures, in one process: the matmul peak (a large jitted fp32 matmul), then
-for the Lo, ray and Hi training steps and the NeRF baseline step: seconds per
-step, rays/s, samples/s, FLOPs per step from XLA's cost analysis, and the
-share of the peak. Uses random-initialised fields on the procedural scene's
+for the Lo, ray and Hi training steps and the NeRF baseline step, and for
+every compared method its output stage's training step and held-out render
+chunk ('<method> train', '<method> render'): seconds per step, rays/s,
+samples/s, FLOPs per step from XLA's cost analysis, and the share of the peak. Uses random-initialised fields on the procedural scene's
 geometry (throughput does not depend on the weights). Writes one result file,
 results/throughput/<config>/<machine>/<UTC time>_<commit>.json, committed so
 that the next measurement is compared with it (experiments/throughput_report.py).
@@ -26,7 +27,7 @@ from experiments.bench import run_file, throughput_report, tool, trace_summary
 from experiments.bench.paths import REPO
 from halo_jax import camera, geometry, models, ray_fields
 from experiments.bench import git_state
-from halo_jax import config_files, frozen, raycast
+from halo_jax import config_files, frozen, methods, raycast, samplers
 from halo_jax.cli import config_of_flags
 from halo_jax.rays import Pixels, Rays, Targets
 from halo_jax.stages import batches, radiance, ray, terms
@@ -38,7 +39,7 @@ flags.DEFINE_string("results", os.path.join(REPO, "results", "throughput"),
                     "Result files' root: <results>/<config>/<machine>/<time>_<commit>.json.")
 flags.DEFINE_integer("repeats", 10, "Timed steps per round.")
 flags.DEFINE_integer("rounds", 3, "Rounds per measurement; the fastest is reported.")
-flags.DEFINE_list("measure", ["lo", "ray", "hi", "nerf", "render"],
+flags.DEFINE_list("measure", ["lo", "ray", "hi", "nerf", "render", "methods"],
                   "Which steps to time (a subset for a quick sweep; the committed "
                   "measurements time all).")
 flags.DEFINE_bool("trace", False, "Also trace `repeats` steps of each measured step with "
@@ -128,27 +129,35 @@ def step_throughput(loss_fn, cfg, params, data, rays_per_step, samples_per_ray, 
 
 
 def render_throughput(c, rf, rf_params, o, d, rf_xla):
-  """A held-out render chunk of the Hi field (forward only, guided by `rf`;
-  its FLOPs counted with `rf_xla` and an Hi field of as_xla(c))."""
+  """A held-out render chunk of config c's Hi field with its own sampler
+  (forward only; guided by `rf` where the sampler reads a guide; a coarse
+  field of its own where it has one), its FLOPs counted with `rf_xla` and an
+  Hi field of as_xla(c)."""
   near, far = c.data.near, c.data.far
+  sc = c.hi.sampler
   model = models.nerf_from_config(c, "hi")
   eval_fn = lambda m, g, b: raycast.make_eval_fn(  # pylint: disable=unnecessary-lambda-assignment
-      m, c.hi.sampler, near=near, far=far, white_background=True, guide_model=g, radius=4.03,
+      m, sc, near=near, far=far, white_background=True, guide_model=g, radius=4.03,
       block_rays=b)
-  ev = {c.eval.block_rays: eval_fn(model, rf, c.eval.block_rays),
-        0: eval_fn(models.nerf_from_config(as_xla(c), "hi"), rf_xla, 0)}
+  guided = samplers.SAMPLERS.get(sc.kind).guided
+  ev = {c.eval.block_rays: eval_fn(model, rf if guided else None, c.eval.block_rays),
+        0: eval_fn(models.nerf_from_config(as_xla(c), "hi"), rf_xla if guided else None, 0)}
   hp = models.init_nerf(model, c.hi.model.kind, 0)
+  coarse = models.init_nerf(model, c.hi.model.kind, 1) if sc.get("coarse_model") else None
   chunk = c.eval.chunk
   oc, dc = jnp.asarray(o[:chunk]), jnp.asarray(d[:chunk])
-  fn = ev[c.eval.block_rays]
-  dt = _time(fn, hp, rf_params, oc, dc)
-  fl = _flops(ev[0], hp, rf_params, oc, dc)  # blocks: the same arithmetic, counted once
+  g = rf_params if guided else None
+  fn = functools.partial(ev[c.eval.block_rays], coarse_params=coarse)
+  dt = _time(fn, hp, g, oc, dc)
+  # blocks: the same arithmetic, counted once
+  fl = _flops(functools.partial(ev[0], coarse_params=coarse), hp, g, oc, dc)
+  points = sc.num_samples + (sc.num_coarse if samplers.SAMPLERS.get(sc.kind).importance else 0)
   r = {"s_per_step": dt, "block_rays": c.eval.block_rays, "rays_per_s": chunk / dt,
-       "samples_per_s": chunk * c.hi.sampler.num_samples / dt,
+       "samples_per_s": chunk * points / dt,
        "gflops": fl / 1e9, "gflops_per_s": fl / dt / 1e9}
   if FLAGS.trace:
     r["trace"] = trace_summary.profile(
-        lambda: jax.block_until_ready([fn(hp, rf_params, oc, dc) for _ in range(FLAGS.repeats)]),
+        lambda: jax.block_until_ready([fn(hp, g, oc, dc) for _ in range(FLAGS.repeats)]),
         FLAGS.repeats)
   return r
 
@@ -175,8 +184,8 @@ def measure_all(c):
   peak = matmul_peak(FLAGS.peak_n)  # measured again at the end; the larger is the peak
   results = {"peak_gflops": peak, "device": str(jax.devices()[0]), "steps": {}}
 
-  def nerf_step(label, config, name, guide=None):
-    if label not in FLAGS.measure:
+  def nerf_step(label, config, name, guide=None, wanted=None):
+    if not (label in FLAGS.measure if wanted is None else wanted):
       return
     cfg = config[name]
     model = models.nerf_from_config(config, name)
@@ -218,6 +227,11 @@ def measure_all(c):
   nerf_step("nerf", config_of_flags(FLAGS["config"], "nerf_tuned"), "hi")
   if "render" in FLAGS.measure:  # held-out rendering with the Hi field
     results["steps"]["render"] = render_throughput(c, rf, rf_params["ray"], o, d, rf_xla)
+  if "methods" in FLAGS.measure:  # every compared method: its output stage, trained and rendered
+    for m in methods.with_role(methods.base.COMPARED):
+      mc = config_of_flags(FLAGS["config"], m)
+      nerf_step(f"{m} train", mc, "hi", guide=(rf, rf_xla, rf_params["ray"]), wanted=True)
+      results["steps"][f"{m} render"] = render_throughput(mc, rf, rf_params["ray"], o, d, rf_xla)
   write_and_print(results, peak, overrides)
 
 
