@@ -173,6 +173,8 @@ def _data():
   """The scene and its views (data.kind: a datasets.LOADERS entry)."""
   return ml_collections.ConfigDict(dict(
       kind="blender",          # 'blender' | 'procedural' | 'dnerf' | 'stanford_lf' | 'llff'
+      rays="",                 # '' (the kind's own rays) or another form its files are read
+                               # in, which a method may choose: llff's 'planes' (datasets)
       # the published protocol these views are ('' for none): a method may
       # hold the paper's setting for one (methods/halo.py)
       protocol="",

@@ -5,7 +5,7 @@ reference machine by `python -m experiments.step_times` (experiments/bench/step_
 
 An entry's key is what sets a step's time, not a scene's name:
 
-  <method>|<data.kind>|<stage>|<digest>
+  <method>|<data.kind>[+<data.rays>]|<stage>|<digest>
 
 where the digest hashes the stage's sizes: its section of the config without
 the fields that change what a step computes but not how long it takes
@@ -69,7 +69,8 @@ def key(config, name) -> str:
   """The table key of stage `name` of a method's config."""
   digest = hashlib.sha256(json.dumps(_sizes(config, name), sort_keys=True,
                                      default=str).encode()).hexdigest()[:12]
-  return f"{config.method}|{config.data.kind}|{name}|{digest}"
+  rays = config.data.get("rays", "")
+  return f"{config.method}|{config.data.kind}{'+' + rays if rays else ''}|{name}|{digest}"
 
 
 @functools.lru_cache(maxsize=8)

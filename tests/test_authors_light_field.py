@@ -204,7 +204,9 @@ def test_even_blended_sampler_spreads_the_window_evenly():
 
 def test_halo_authors_on_llff_is_their_light_field_on_two_planes():
   c = configure.load("configs/llff.py:fern_4view_cpu", "halo_authors")
-  assert c.data.kind == "llff_planes" and c.stages == "hi" and c.hi.kind == "light_field"
+  # the scene stays LLFF; the method reads its photos as rays between two planes
+  assert (c.data.kind, c.data.rays) == ("llff", "planes")
+  assert c.stages == "hi" and c.hi.kind == "light_field"
   assert c.hi.sampler.kind == "joint_blended_even" and c.hi.joint.target == "max_weight"
   assert c.hi.joint.random_rays == c.hi.batch_rays and not c.hi.joint.color_uv
   assert c.hi.fourier.st_kind == "octaves" and c.hi.fourier.theta_features == 10

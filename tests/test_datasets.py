@@ -123,3 +123,19 @@ def test_lego_eight_views_factor_8():
   np.testing.assert_allclose(ds.radius, 4.031, atol=0.01)
   # RGBA on white: corners are background.
   np.testing.assert_allclose(ds.train.images[:, 0, 0], 1.0, atol=1e-6)
+
+
+def test_a_ray_form_is_the_kinds_to_name():
+  """data.rays picks another form a kind's files are read in (LLFF's 'planes');
+  a form the kind does not have is one line naming the field."""
+  import ml_collections  # pylint: disable=import-outside-toplevel
+  from halo_jax import datasets, registry  # pylint: disable=import-outside-toplevel
+  from halo_jax.geometry import Geometry  # pylint: disable=import-outside-toplevel
+  llff = ml_collections.ConfigDict(dict(kind="llff", rays=""))
+  assert datasets.spec_of(llff).geometry == Geometry.NDC
+  llff.rays = "planes"
+  assert datasets.spec_of(llff).geometry == Geometry.TWO_PLANE
+  assert datasets.scene_kind(llff) == "two_plane"
+  for kind, rays in (("llff", "sphere"), ("blender", "planes")):
+    with pytest.raises(registry.ConfigError, match=f"data.rays='{rays}': data.kind='{kind}'"):
+      datasets.spec_of(ml_collections.ConfigDict(dict(kind=kind, rays=rays)))

@@ -4,7 +4,7 @@ whether its frames carry times, so a config can be checked before any data
 is read."""
 import dataclasses
 import os
-from typing import Callable
+from typing import Callable, Mapping
 
 import ml_collections
 
@@ -19,11 +19,13 @@ from halo_jax.geometry import Geometry
 class DatasetSpec:
   """load: (data config, workdir) -> Dataset; geometry of its rays; facts:
   what its rays mean (base.SceneFacts); dynamic: its frames carry capture
-  times."""
+  times; forms: {name: DatasetSpec} of the other ray forms the same files can
+  be read in (`data.rays`; a method chooses one, the scene's kind stays)."""
   load: Callable
   geometry: Geometry
   facts: SceneFacts
   dynamic: bool = False
+  forms: Mapping[str, "DatasetSpec"] = dataclasses.field(default_factory=dict)
 
 
 LOADERS = registry.Registry[DatasetSpec]("dataset")
@@ -115,21 +117,30 @@ def _load_procedural(cfg, workdir=""):
 LOADERS.register("blender", DatasetSpec(_load_blender, Geometry.SPHERE, ORBIT))
 LOADERS.register("procedural", DatasetSpec(_load_procedural, Geometry.SPHERE, ORBIT))
 LOADERS.register("dnerf", DatasetSpec(_load_dnerf, Geometry.SPHERE, ORBIT_TIME, dynamic=True))
-LOADERS.register("llff", DatasetSpec(_load_llff, Geometry.NDC, SPIRAL))
 LOADERS.register("stanford_lf", DatasetSpec(_load_light_field, Geometry.TWO_PLANE, UV_PLANE))
 # LLFF photos cut by two planes (the authors' LLFF light field): NeRF's spiral
 # for videos; no view pairs, since the frequency rule tunes a Lo-NeRF this
-# method does not have
-LOADERS.register("llff_planes", DatasetSpec(_load_llff_planes, Geometry.TWO_PLANE, SceneFacts(
-    "", ("spiral",), "depth fraction tau in [0, 1] between the near and far planes")))
+# method does not have. LLFF's form 'planes' (data.rays, methods/halo_authors.py),
+# and a kind of its own for configs made before forms.
+LLFF_PLANES = DatasetSpec(_load_llff_planes, Geometry.TWO_PLANE, SceneFacts(
+    "", ("spiral",), "depth fraction tau in [0, 1] between the near and far planes"))
+LOADERS.register("llff", DatasetSpec(_load_llff, Geometry.NDC, SPIRAL,
+                                     forms={"planes": LLFF_PLANES}))
+LOADERS.register("llff_planes", LLFF_PLANES)
 # your own photos (datasets/capture.py): 360-degree, and forward-facing in NDC
 LOADERS.register("capture", DatasetSpec(capture.load_sphere, Geometry.SPHERE, ORBIT))
 LOADERS.register("capture_ff", DatasetSpec(capture.load_forward, Geometry.NDC, SPIRAL))
 
 
 def spec_of(data_cfg) -> DatasetSpec:
-  """The registry entry of `data.kind` (ConfigError naming the field)."""
-  return LOADERS.get(data_cfg.kind, "data.kind")
+  """The registry entry of `data.kind`, in the form `data.rays` names where
+  it names one (ConfigError naming the field)."""
+  spec = LOADERS.get(data_cfg.kind, "data.kind")
+  form = data_cfg.get("rays", "")
+  if form and form not in spec.forms:
+    raise registry.ConfigError(f"data.rays={form!r}: data.kind={data_cfg.kind!r} reads its files "
+                               f"as {sorted(spec.forms) or 'its own rays only'} ('' for its own)")
+  return spec.forms[form] if form else spec
 
 
 def scene_kind(data_cfg) -> str:

@@ -42,7 +42,7 @@ Light fields (their EPINeLFUvSt with NeLFEPIField and EPIField):
   80k), the rate Poly power 1 to 5e-6.
 
 LLFF (their EPINeLFRays, configs/epi_nelf_sparse_llff_*.py): the same joint
-light field on world rays cut by two planes (data.kind 'llff_planes'), not
+light field on world rays cut by two planes (data.rays 'planes'), not
 NDC, and no Lo-NeRF; points placed by depth between the planes; (s, t) and
 the depth encoded by octaves (their BaseEmbedder: scale 8 and 1), (u, v) by
 axis-aligned frequencies of std 8 rad per scene unit; the ray field's colour
@@ -130,7 +130,7 @@ LLFF_LR_POWER = 2.0
 # LLFF as their joint light field on two planes (replaces the NDC pipeline):
 # the same files read as rays between two planes.
 NDC = {
-    "data.kind": "llff_planes",
+    "data.rays": "planes",
     "stages": "hi",
     "hi": base.Edit(light_field_defaults.light_field_stage),
     "hi.random_background": True,    # their EPINeLFRays' background='random'
