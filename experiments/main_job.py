@@ -23,13 +23,9 @@ import tempfile
 import time
 
 from absl import flags
-import matplotlib
-
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # pylint: disable=g-import-not-at-top
-
-from experiments.bench import code_version, git_state, report, tool  # noqa: E402
-from experiments.bench.paths import REPO  # noqa: E402
+from experiments.bench import code_version, git_state, report, tool
+from experiments.bench.paths import REPO
+from halo_jax.cli import compare
 
 ARGS = ["--config=configs/default.py", "--methods=halo,nerf_tuned"]
 COMMAND = "halo-compare " + " ".join(ARGS[:1]) + " --workdir=/tmp/halo_default " + ARGS[1]
@@ -39,24 +35,8 @@ IMAGE = os.path.join(REPO, "docs", "images", "main_job.png")
 FLAGS = flags.FLAGS
 
 
-def plot(methods: dict, path: str):
-  plt.figure(figsize=(6, 3.6))
-  for name, r in methods.items():
-    if r.get("curve"):
-      t, p = zip(*r["curve"])
-      plt.plot(t, p, marker="o", label=name)
-  plt.xlabel("training (reference seconds)")
-  plt.ylabel("held-out PSNR (dB), curve views")
-  plt.grid(alpha=0.3)
-  plt.legend()
-  plt.tight_layout()
-  plt.savefig(path, dpi=110)
-  plt.close()
-
-
 def block(record) -> str:
   """The README's main-job block: what halo-compare printed, its time, the plot."""
-  from halo_jax.cli import compare  # pylint: disable=import-outside-toplevel
   table = compare.write_report(record["methods"], tempfile.mkdtemp(), record["num_test_views"])
   rows = [l for l in table.splitlines() if l.startswith("|") or l.startswith("- ")]
   m = record["run"]
@@ -108,7 +88,7 @@ def main(argv):
     with open(RECORD, "w") as f:
       json.dump(record, f, indent=1)
       f.write("\n")
-    plot(methods, IMAGE)
+    compare.plot_curves(methods, IMAGE, size=(6, 3.6), dpi=110)
     if not FLAGS.from_workdir:
       shutil.rmtree(workdir, ignore_errors=True)
   with open(RECORD) as f:

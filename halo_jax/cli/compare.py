@@ -121,9 +121,15 @@ def write_report(results, workdir, n_test):
            + reach_lines(results))
   with open(os.path.join(workdir, "results.md"), "w") as f:
     f.write(table)
-  plt.figure(figsize=(6, 4))
+  plot_curves(results, os.path.join(workdir, "psnr_vs_time.png"))
+  return table
+
+
+def plot_curves(results, path, size=(6, 4), dpi=120):
+  """Each method's held-out curve (PSNR against reference seconds) in one PNG."""
+  plt.figure(figsize=size)
   for name, r in results.items():
-    if r["curve"]:
+    if r.get("curve"):
       t, p = zip(*r["curve"])
       plt.plot(t, p, marker="o", label=name)
   plt.xlabel("training (reference seconds)")
@@ -131,8 +137,8 @@ def write_report(results, workdir, n_test):
   plt.grid(alpha=0.3)
   plt.legend()
   plt.tight_layout()
-  plt.savefig(os.path.join(workdir, "psnr_vs_time.png"), dpi=120)
-  return table
+  plt.savefig(path, dpi=dpi)
+  plt.close()
 
 
 def main(argv):
