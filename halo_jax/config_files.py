@@ -5,6 +5,7 @@ The repository's `configs/` folder is installed as `halo_jax.configs`, so
 any directory once halo-jax is installed, not only inside a clone.
 """
 import importlib.util
+import copy
 import os
 import sys
 
@@ -66,4 +67,18 @@ def dotted_fields(tree, prefix: str = "") -> dict:
       out.update(dotted_fields(v, f"{prefix}{k}."))
     else:
       out[prefix + k] = v
+  return out
+
+
+def laid_over(tree: dict, over: dict) -> dict:
+  """A copy of the nested dict `tree` with each leaf of the nested dict
+  `over` set in it (a stage section and the plan a protocol made of it:
+  halo_jax/protocol.py)."""
+  out = copy.deepcopy(dict(tree))
+  for dotted, value in dotted_fields(dict(over)).items():
+    *path, field = dotted.split(".")
+    node = out
+    for part in path:
+      node = node[part]
+    node[field] = value
   return out

@@ -50,8 +50,8 @@ def _train(steps, batch_rays, lr_init, lr_final):
       # steps here (stages/budget.py; 0: none; a budget sets it for untabled sizes)
       max_seconds=0.0,
       min_steps=0,  # the fewest steps a budget gives a stage; later shares pay (not the last's)
-      # set by the protocol (halo_jax/protocol.py), never by hand
-      budget_steps=0, ref_step_s=0.0, ref_setup_s=0.0, ref_offset_s=0.0,
+      # (the step count and reference clock a protocol works out are in the
+      # config's separate `plan` section: halo_jax/protocol.py)
       # stop after this step, as a time cap would, with every schedule (the
       # learning rate's, FreeNeRF's mask) still spanning `steps` (0: at `steps`)
       stop_at_step=0,

@@ -80,12 +80,14 @@ def run(config, workdir: str, dataset=None, pacer=None) -> dict:
     return _run(config, graph, workdir, dataset, pacer)
 
 
-def _run(config, graph, workdir, dataset, pacer):
+def _run(resolved, graph, workdir, dataset, pacer):
+  # what the stages train with: each stage with its plan laid over it
+  config = protocol.effective(resolved)
   until = protocol.shares_until(config, graph.final) if config.protocol == "budget" else {}
-  check_workdir(config, workdir)
+  check_workdir(resolved, workdir)
   if config.lo.encoding.auto and "lo" in graph.run:
     # The search's own training time is not part of this run's budget.
-    L, scale = tuning.chosen_encoding(config, workdir, dataset, run)
+    L, scale = tuning.chosen_encoding(resolved, workdir, dataset, run)
     config = frozen.replaced(config, {"lo.encoding.L": L, "lo.encoding.scale": scale})
   log = metrics_log.MetricsLog(workdir)
   mesh = parallel.make_mesh(config.parallel)

@@ -10,19 +10,24 @@
             measured on one reference machine. A run then trains exactly those
             steps on any machine, fast or slow.
 
-`resolve` fixes the step counts once, before anything trains, from the
-config alone; it writes only the stage fields it owns (`budget_steps`,
-`ref_step_s`, `ref_setup_s`, `ref_offset_s`, `max_seconds`; under a budget,
-`init_from_lo` and `encoding.with_lo` of a stage with `copy_lo_under_budget`)
-and is idempotent, so the pipeline can resolve again what `configure`
-resolved. A method states what it does under each protocol in fields
-(`copy_lo_under_budget`) and never reads which protocol a run has: only
-`resolve` does, after every override, in whatever order they came.
+`resolve` works out, once and before anything trains, what the protocol
+makes of the config, and writes it into one separate section, `config.plan`
+({stage: the stage fields the protocol sets}), never into the fields a user
+sets: each stage's `budget_steps` and reference clock (`ref_step_s`,
+`ref_setup_s`, `ref_offset_s`); under a budget its `max_seconds`, and
+`init_from_lo` and `encoding.with_lo` for a stage with
+`copy_lo_under_budget`; for a stage with `schedule_span='stage'` its
+`steps` and the SPANNED fields. A printed config thus shows what was asked
+beside what was worked out. `effective(config)` is the config the stages
+train with: each stage section with its plan laid over it (pipeline.run
+makes it once). resolve reads only the user's fields, so resolving again
+gives the same plan. A method states what it does under each protocol in
+fields (`copy_lo_under_budget`) and never reads which protocol a run has:
+only `resolve` does, after every override, in whatever order they came.
 A stage with `schedule_span='stage'` (a recipe whose schedules are shares of
-its run, the authors') is the one exception: once its length is fixed,
-`steps` becomes that length and each field of SPANNED is rescaled with it,
-so its rate, crop, L_empty start and window span the steps it trains
-(resolving again finds the ratio 1 and changes nothing). A stage that
+its run, the authors') trains for the length the protocol gives it, with
+each field of SPANNED rescaled by that length over its `steps`, so its rate,
+crop, L_empty start and window span the steps it trains. A stage that
 measures its own count has no length before it starts; its schedules stay
 written against `steps`.
 
@@ -39,7 +44,9 @@ record says so (`protocol.measured`).
 """
 import math
 
-from halo_jax import registry, step_table
+import ml_collections
+
+from halo_jax import config_files, frozen, registry, step_table
 from halo_jax.stages.order import needed, stage_names
 
 KINDS = ("paper", "steps", "budget")
@@ -89,17 +96,6 @@ def apply(config, protocol):
                    "seconds > 0")
 
 
-def _clear(config, sections):
-  """Resets the fields resolve owns (a budget owns max_seconds too; under
-  the other protocols it is the user's time cap, which a loop also turns
-  into steps after timing its first ones)."""
-  for name in sections:
-    for field in OWNED:
-      config[name][field] = 0 if field == "budget_steps" else 0.0
-    if config.protocol == "budget":
-      config[name].max_seconds = 0.0
-
-
 def problems(config, graph):
   """The one-line complaints (stages/order.Graph `graph`) about an unknown
   protocol, or a budget that does not fit it, first first (halo_jax/validate.py)."""
@@ -126,40 +122,77 @@ def problems(config, graph):
 
 
 def resolve(config, graph):
-  """Fixes each stage's step count under config's protocol, in place; returns
-  config (ConfigError as `problems` says). graph: config's stage graph
-  (stages/order.graph), read once by the caller."""
+  """Writes config.plan, what config's protocol makes of each stage (module
+  docstring), in place; returns config (ConfigError as `problems` says).
+  graph: config's stage graph (stages/order.graph), read once by the caller.
+  No other field is written."""
   for message in problems(config, graph):
     raise registry.ConfigError(message)
-  _clear(config, graph.sections)
+  plan = {n: {f: (0 if f == "budget_steps" else 0.0) for f in OWNED} for n in graph.sections}
   if config.protocol == "budget":
-    _copy_lo(config, graph.sections)
-    _budget_steps(config, graph.final)
+    for name in graph.sections:  # a budget's share, or none
+      plan[name]["max_seconds"] = 0.0
+    _copy_lo(config, plan, graph.sections)
+    # the copy widens a stage's input: the step table's key reads it from the plan
+    config.plan = ml_collections.ConfigDict(plan)
+    _budget_steps(config, plan, graph.final)
   for name in graph.sections:
     if config[name].get("schedule_span", "steps") == "stage":
-      _span_schedules(config[name])
+      _span_schedules(config[name], plan[name])
+  config.plan = ml_collections.ConfigDict(plan)
   return config
 
 
-def _copy_lo(config, sections):
+def _set(plan_stage, dotted, value):
+  """plan_stage[<dotted>] = value, making the nested dicts on the way."""
+  *path, field = dotted.split(".")
+  node = plan_stage
+  for part in path:
+    node = node.setdefault(part, {})
+  node[field] = value
+
+
+def applied(tree: dict) -> dict:
+  """A resolved config as a plain dict (its JSON) with each stage's plan laid
+  over the stage and the plan section left out: what `effective` makes, for
+  code that reads records. A config without a plan (a record written before
+  the plan was a section of its own, whose stages already held these
+  fields) is returned as it is."""
+  out = dict(tree)
+  for name, fields in (out.pop("plan", None) or {}).items():
+    out[name] = config_files.laid_over(out[name], fields)
+  return out
+
+
+def effective(config):
+  """The frozen config the stages train with: each stage section with its
+  plan (config.plan) laid over it, the plan section left out. A config with
+  no plan is returned as it is (`applied`)."""
+  if "plan" not in config:
+    return frozen.freeze(config)
+  tree = frozen.thaw(config).to_dict()
+  return frozen.freeze(ml_collections.ConfigDict(applied(tree)))
+
+
+def _copy_lo(config, plan, sections):
   """Under the 'budget' protocol, each stage with `copy_lo_under_budget`
-  starts as Lo-NeRF's exact copy (init_from_lo, encoding.with_lo): the few
-  thousand steps a budget allows do not bring a field trained from scratch
-  back to where Lo already is (methods/halo.py). Set before the step table is
-  read: with_lo widens the stage's input, so it is part of the stage's key."""
+  starts as Lo-NeRF's exact copy (init_from_lo, encoding.with_lo, in its
+  plan): the few thousand steps a budget allows do not bring a field trained
+  from scratch back to where Lo already is (methods/halo.py)."""
   for name in sections:
     if config[name].get("copy_lo_under_budget", False):
-      config[name].init_from_lo = True
-      config[name].encoding.with_lo = True
+      for dotted in ("init_from_lo", "encoding.with_lo"):
+        _set(plan[name], dotted, True)
 
 
-def _span_schedules(cfg):
-  """Rescales a stage's SPANNED fields from `steps` to the steps it trains
-  (the budget's count, or stop_at_step where sooner), which becomes `steps`;
-  a stage that measures its own count is left as it is."""
-  if cfg.get("max_seconds", 0.0) and not cfg.get("budget_steps", 0):
+def _span_schedules(cfg, plan_stage):
+  """A stage's length (the budget's count, or stop_at_step where sooner) as
+  its plan's `steps`, and each SPANNED field rescaled from `steps` to it;
+  a stage that measures its own count keeps its fields."""
+  max_seconds = plan_stage.get("max_seconds", cfg.get("max_seconds", 0.0))
+  if max_seconds and not plan_stage["budget_steps"]:
     return
-  length = min(cfg.steps, cfg.stop_at_step or cfg.steps, cfg.budget_steps or cfg.steps)
+  length = min(cfg.steps, cfg.stop_at_step or cfg.steps, plan_stage["budget_steps"] or cfg.steps)
   ratio = length / max(cfg.steps, 1)
   for dotted in SPANNED:
     *path, field = dotted.split(".")
@@ -169,8 +202,8 @@ def _span_schedules(cfg):
       if node is None:
         break
     if node is not None and node.get(field, 0) > 0:
-      node[field] = max(1, round(node[field] * ratio))
-  cfg.steps = length
+      _set(plan_stage, dotted, max(1, round(node[field] * ratio)))
+  plan_stage["steps"] = length
 
 
 def split(config, total: float, final) -> dict:
@@ -192,8 +225,9 @@ def shares_until(config, final) -> dict:
   return until
 
 
-def _budget_steps(config, final):
-  """Each stage's budget_steps from the step table (module docstring)."""
+def _budget_steps(config, plan, final):
+  """Each stage's budget_steps and reference clock from the step table
+  (module docstring), into `plan`; config.plan holds the copy of Lo already."""
   parts = split(config, config.budget_s, final)
   table = step_table.load(config.get("step_table", ""))
   names = list(parts)
@@ -204,7 +238,7 @@ def _budget_steps(config, final):
     entry = None if measuring else table.get(step_table.key(config, name))
     if entry is None:  # this machine measures it (stages/loop.py); so do the stages after it
       measuring = True
-      cfg.max_seconds = max(until - spent, 1e-3)
+      plan[name]["max_seconds"] = max(until - spent, 1e-3)
       spent = until
       continue
     # A floor is paid for by the shares after it; the last stage has none, so
@@ -214,23 +248,25 @@ def _budget_steps(config, final):
     # the step that crosses the share is taken, as a clock-stopped loop would
     count = math.ceil(max(until - spent - entry["setup_s"], 0.0) / entry["step_s"] - 1e-9)
     count = max(1, min(max(count, floor), cap))
-    cfg.update(budget_steps=count, ref_step_s=float(entry["step_s"]),
-               ref_setup_s=float(entry["setup_s"]), ref_offset_s=spent)
+    plan[name].update(budget_steps=count, ref_step_s=float(entry["step_s"]),
+                      ref_setup_s=float(entry["setup_s"]), ref_offset_s=spent)
     spent += entry["setup_s"] + count * entry["step_s"]
 
 
 def summary(config) -> dict:
   """What a record keeps of the protocol: its kind, budget, and per stage the
-  steps fixed from the table (or 'measured' on this machine) with the key."""
-  kind = config.get("protocol", "paper")
-  out = {"kind": kind, "budget_s": float(config.budget_s)}
+  steps fixed from the table (or 'measured' on this machine) with the key.
+  config: resolved (with its plan) or effective."""
+  c = effective(config)
+  kind = c.get("protocol", "paper")
+  out = {"kind": kind, "budget_s": float(c.budget_s)}
   if kind == "budget":
-    out["stages"] = {n: ({"steps": int(config[n].budget_steps),
-                          "step_s": config[n].ref_step_s, "setup_s": config[n].ref_setup_s,
-                          "key": step_table.key(config, n)}
-                         if config[n].ref_step_s else
-                         {"measured": True, "seconds": config[n].max_seconds,
-                          "key": step_table.key(config, n)})
-                     for n in needed(config, config.final_stage)}
+    out["stages"] = {n: ({"steps": int(c[n].budget_steps),
+                          "step_s": c[n].ref_step_s, "setup_s": c[n].ref_setup_s,
+                          "key": step_table.key(c, n)}
+                         if c[n].ref_step_s else
+                         {"measured": True, "seconds": c[n].max_seconds,
+                          "key": step_table.key(c, n)})
+                     for n in needed(c, c.final_stage)}
     out["measured"] = any(s.get("measured") for s in out["stages"].values())
   return out

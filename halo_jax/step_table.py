@@ -51,7 +51,10 @@ def _sizes(config, name) -> dict:
   """The stage's fields that set its step time, dotted."""
   out = {}
   off = {t for t in LATER_TERMS if t in config[name] and not config[name][t].weight}
-  for field, value in config_files.dotted_fields(config[name].to_dict()).items():
+  stage = config[name].to_dict()
+  if "plan" in config and name in config.plan:  # the stage as it trains (protocol.effective)
+    stage = config_files.laid_over(stage, config.plan[name].to_dict())
+  for field, value in config_files.dotted_fields(stage).items():
     if field in TIMELESS or field.split(".", 1)[0] in off:
       continue
     if field.rsplit(".", 1)[-1] in WEIGHTS:
@@ -66,7 +69,8 @@ def _sizes(config, name) -> dict:
 
 
 def key(config, name) -> str:
-  """The table key of stage `name` of a method's config."""
+  """The table key of stage `name` of a method's config (resolved, its plan
+  laid over the stage, or as the stages train it)."""
   digest = hashlib.sha256(json.dumps(_sizes(config, name), sort_keys=True,
                                      default=str).encode()).hexdigest()[:12]
   rays = config.data.get("rays", "")

@@ -15,7 +15,8 @@ from typing import Any, Dict, Optional, Tuple
 
 import numpy as np
 
-from halo_jax import camera, checkpoint, datasets, raycast, restore, samplers, video, workdir_lock
+from halo_jax import (camera, checkpoint, datasets, frozen, protocol, raycast, restore, samplers,
+                      video, workdir_lock)
 from halo_jax.datasets.base import Views
 from halo_jax.datasets.llff import NDCViews
 from halo_jax.datasets.stanford_lf import LightFieldViews
@@ -44,7 +45,8 @@ def _read_run_config(workdir: str):
   if not os.path.exists(path):
     raise restore.NothingToRestore(f"{workdir}: no run here (no config.json); train one first "
                                    "(halo-train --config=... --workdir=DIR)")
-  return checkpoint.read_config(path)
+  # as the stages trained it (the protocol's plan laid over them), editable
+  return frozen.thaw(protocol.effective(checkpoint.read_config(path)))
 
 
 def _draws(config, name) -> bool:

@@ -7,7 +7,7 @@ import sys
 
 import pytest
 
-from halo_jax import frozen  # pylint: disable=g-import-not-at-top
+from halo_jax import frozen, protocol  # pylint: disable=g-import-not-at-top
 
 REPO = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..")
 from experiments.bench import ablations, adopt  # pylint: disable=g-import-not-at-top
@@ -148,9 +148,8 @@ def test_knights_baseline_at_halos_steps_trains_exactly_halos_count(tmp_path):
   in the same reference time, its schedule as written (the plain baseline's)."""
   for budget in (60, 240):
     name = f"knights_steps_{budget}"
-    halo = _configured(name, "knights", "halo", 0, tmp_path)[2]
-    base = _configured(name, "knights", "nerf_tuned", 0, tmp_path)[2]
-    same = _configured(name, "knights", "nerf_tuned_halo_steps", 0, tmp_path)[2]
+    halo, base, same = (protocol.effective(_configured(name, "knights", m, 0, tmp_path)[2])
+                        for m in ("halo", "nerf_tuned", "nerf_tuned_halo_steps"))
     assert base.hi.budget_steps > halo.hi.budget_steps  # the baseline's step is cheaper
     assert same.hi.budget_steps == halo.hi.budget_steps == same.hi.stop_at_step
     assert same.hi.steps == base.hi.steps and same.hi.lr_init == base.hi.lr_init

@@ -12,7 +12,7 @@ import pytest
 from conftest import editable, resolved  # pylint: disable=g-import-not-at-top
 
 from conftest import SHARED_DATA
-from halo_jax import configure, encoding, lightfield, ray_fields, samplers
+from halo_jax import configure, encoding, lightfield, protocol, ray_fields, samplers
 from halo_jax.datasets import llff
 from halo_jax.configure import finish  # pylint: disable=g-import-not-at-top
 
@@ -285,9 +285,9 @@ def test_authors_lo_nerf_is_their_lfnerf_config():
   one = configure.load("configs/blender.py:lego_oneside", "halo_authors").lo
   assert (one.encoding.scale, one.steps, one.precrop_steps) == (1.0, 4200, 500)
   # under a budget the crop is the same share of the steps Lo trains
-  c = (configure.load("configs/blender.py:lego_8view_cpu", "halo_authors",
-                                      {"protocol": "steps", "budget_s": 0.0,
-                                       "lo.stop_at_step": 480}))
+  c = protocol.effective(configure.load("configs/blender.py:lego_8view_cpu", "halo_authors",
+                                        {"protocol": "steps", "budget_s": 0.0,
+                                         "lo.stop_at_step": 480}))
   assert (c.lo.steps, c.lo.precrop_steps) == (480, round(round(500 / 8000 * 1500) * 480 / 1500))
   assert float(step.schedule(c.lo)(480)) == pytest.approx(1e-4)
 
@@ -298,16 +298,16 @@ def test_authors_schedules_span_the_steps_hi_trains():
   from halo_jax.stages import step
   over = {"protocol": "steps", "budget_s": 0.0, "hi.stop_at_step": 736}
   for scene, start in (("lego", 0), ("drums", 2000)):
-    c = (configure.load(f"configs/blender.py:{scene}_8view_cpu",
-                                        "halo_authors", over))
-    hi = c.hi
+    c = configure.load(f"configs/blender.py:{scene}_8view_cpu", "halo_authors", over)
+    hi = protocol.effective(c).hi  # the spanned schedules are the protocol's plan
     assert hi.steps == 736
     assert hi.precrop_steps == round(round(1000 * 6000 / 80000) * 736 / 6000) == 9
     assert hi.empty.start_step == (round(round(start * 6000 / 80000) * 736 / 6000) if start
                                    else 0)
     assert float(step.schedule(hi)(736)) == pytest.approx(5e-6)
-    again = configure.finish(c)   # idempotent: the ratio is 1 the second time
+    again = protocol.effective(configure.finish(c))   # idempotent
     assert (again.hi.steps, again.hi.precrop_steps) == (736, 9)
+    assert (c.hi.steps, c.hi.precrop_steps) == (6000, 75)  # as the method states them
   # `halo` keeps its schedules on the cap
   ours = (configure.load("configs/blender.py:lego_8view_cpu", "halo", over)).hi
   assert (ours.steps, ours.schedule_span) == (6000, "steps")
@@ -322,7 +322,7 @@ def test_authors_schedules_span_the_budgets_count(tmp_path):
   table.write_text(json.dumps({"entries": {step_table.key(c, "hi"): {"step_s": 0.5,
                                                                      "setup_s": 0.0}}}))
   c.step_table = str(table)
-  hi = resolved(c).hi
+  hi = protocol.effective(resolved(c)).hi
   assert hi.budget_steps == hi.steps == math.ceil(c.budget_s / 0.5)
   assert hi.joint.alpha_steps == round(round(6000 * 12000 / 124000) * hi.steps / 6000)
   assert hi.lr_power == 2.0 and hi.lr_final == 5e-6

@@ -65,7 +65,7 @@ def test_the_composed_config_is_frozen_and_the_pipeline_refuses_another():
   with pytest.raises(ConfigError, match="composed, frozen config"):
     pipeline.run(frozen.thaw(c), "/nonexistent/never_written")
   edited = frozen.thaw(c)
-  edited.hi.budget_steps = 7   # the protocol's count, edited after compose
+  edited.plan.hi.budget_steps = 7   # the protocol's count, edited after compose
   with pytest.raises(ConfigError, match="not resolved"):
     pipeline.run(frozen.freeze(edited), "/nonexistent/never_written")
 
@@ -102,7 +102,7 @@ def test_the_protocol_argument_is_the_protocol_fields():
   spec = "configs/blender.py:lego_8view"
   as_arg = configure.compose(spec, "halo", protocol=60.0)
   as_fields = configure.compose(spec, "halo", {"protocol": "budget", "budget_s": 60.0})
-  assert as_arg.to_dict() == as_fields.to_dict() and as_arg.hi.init_from_lo
+  assert as_arg.to_dict() == as_fields.to_dict() and as_arg.plan.hi.init_from_lo
   with pytest.raises(ValueError, match="protocol='fast'"):
     configure.compose(spec, "halo", protocol="fast")
 

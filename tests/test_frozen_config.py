@@ -39,8 +39,9 @@ def test_the_stages_receive_an_immutable_config(tmp_path, monkeypatch):
   assert all(isinstance(x, ml_collections.FrozenConfigDict) for _, x in seen)
   with open(os.path.join(workdir, "config.json")) as f:
     at_start = json.load(f)
-  for _, config in seen:  # the value the run recorded first is the one every stage had
-    assert json.loads(config.to_json_best_effort()) == at_start
+  for _, config in seen:  # the value the run recorded first, as the stages train it
+    assert json.loads(config.to_json_best_effort()) == protocol.applied(at_start)
+  assert "plan" in at_start and "plan" not in json.loads(seen[0][1].to_json_best_effort())
   assert at_start == json.loads(protocol.resolve(frozen.thaw(c), order.graph(c)).to_json_best_effort())
 
 

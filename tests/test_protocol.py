@@ -8,8 +8,9 @@ import os
 import pytest
 
 from conftest import resolved, tiny_config
-from halo_jax import configure, pipeline, protocol, registry, runs, step_table
-from halo_jax.stages import budget
+from halo_jax import (config_files, configure, frozen, pipeline, protocol, registry, runs,
+                      step_table)
+from halo_jax.stages import budget, order
 from conftest import editable  # pylint: disable=g-import-not-at-top
 from halo_jax.configure import finish  # pylint: disable=g-import-not-at-top
 
@@ -41,8 +42,13 @@ def _budgeted(tmp_path, seconds=100.0, steps=10 ** 5):
   return resolved(c)
 
 
+def _trained(c):
+  """c as its stages train it: its plan laid over the stages."""
+  return protocol.effective(c)
+
+
 def test_a_budget_is_its_shares_in_steps_of_the_table(tmp_path):
-  c = _budgeted(tmp_path)
+  c = _trained(_budgeted(tmp_path))
   # lo: 30 s / 0.1; ray: (37 - 30 - 2) / 0.01; hi: (100 - 37 - 0.5) / 0.2, each
   # step that crosses its share taken
   assert (c.lo.budget_steps, c.ray.budget_steps, c.hi.budget_steps) == (
@@ -58,7 +64,7 @@ def test_a_stage_capped_before_its_share_leaves_its_time_to_the_next(tmp_path):
   c.lo.steps, c.ray.steps, c.hi.steps = 100, 10 ** 5, 10 ** 5
   protocol.budget(c, 100.0)
   c.step_table = _table(tmp_path, c)
-  resolved(c)
+  c = _trained(resolved(c))
   assert c.lo.budget_steps == 100                        # 10 s of its 30
   assert c.ray.budget_steps == math.ceil((37 - 10 - 2) / 0.01 - 1e-9)
   assert c.hi.ref_offset_s == pytest.approx(37.0)        # the ray field took what lo left
@@ -72,7 +78,7 @@ def test_a_share_too_small_still_trains_the_floor_and_the_next_stage_pays(tmp_pa
   c.ray.min_steps = 200
   protocol.budget(c, 100.0)
   c.step_table = _table(tmp_path, c)
-  resolved(c)
+  c = _trained(resolved(c))
   assert c.ray.budget_steps == 200
   spent = 30.0 + 2.0 + 200 * 0.01
   assert c.hi.ref_offset_s == pytest.approx(spent)
@@ -86,7 +92,7 @@ def test_the_last_stage_has_no_floor_so_a_method_ends_within_its_budget(tmp_path
     c[n].update(steps=10 ** 5, min_steps=100)
   protocol.budget(c, 10.0)
   c.step_table = _table(tmp_path, c)
-  resolved(c)
+  c = _trained(resolved(c))
   assert c.lo.budget_steps == 100 and c.ray.budget_steps == 100      # floors: 10 s, 1 s
   # hi: nothing left after lo's 10 s, ray's 2 s set-up and 1 s: one step, not 100
   assert c.hi.budget_steps == 1
@@ -97,8 +103,7 @@ def test_resolving_again_gives_the_same_counts_and_follows_a_new_budget(tmp_path
   first = c.to_dict()
   assert resolved(c).to_dict() == first
   c.budget_s = 50.0
-  resolved(c)
-  assert c.lo.budget_steps == 150
+  assert _trained(resolved(c)).lo.budget_steps == 150
 
 
 def test_a_size_the_table_lacks_is_left_to_the_run_to_measure(tmp_path):
@@ -106,10 +111,11 @@ def test_a_size_the_table_lacks_is_left_to_the_run_to_measure(tmp_path):
   protocol.budget(c, 100.0)
   c.step_table = _table(tmp_path, c, names=("lo",))
   resolved(c)
+  assert protocol.summary(c)["measured"]
+  c = _trained(c)
   assert c.lo.budget_steps > 0 and c.lo.max_seconds == 0
   # the ray field is missing: it and the stages after it measure themselves
   assert c.ray.budget_steps == 0 and c.ray.max_seconds > 0 and c.hi.max_seconds > 0
-  assert protocol.summary(c)["measured"]
 
 
 @pytest.mark.parametrize("field,value,match", [
@@ -163,8 +169,8 @@ def test_the_shipped_table_covers_the_cpu_suite_and_gives_its_steps():
   lego = suites.CPU.scenes[0]
   tuned = benchmark.configure(suites.CPU, lego, "nerf_tuned", 0, "budget", "/tmp/unused")
   halo = benchmark.configure(suites.CPU, lego, "halo", 0, "budget", "/tmp/unused")
-  assert 820 <= tuned.hi.budget_steps <= 845
-  assert 735 <= halo.hi.budget_steps <= 760
+  assert 820 <= _trained(tuned).hi.budget_steps <= 845
+  assert 735 <= _trained(halo).hi.budget_steps <= 760
   assert step_table.machine()["cpu"]
 
 
@@ -181,9 +187,9 @@ def test_budgeted_runs_train_exactly_their_counts(scene_root, tmp_path):
   c.step_table = _table(tmp_path, c, setup_s={"lo": 0.0, "ray": 0.0, "hi": 0.0})
   c.eval.front_s = (0.25, 1.105, 1.5)
   c.lo.eval_every_s, c.hi.eval_every_s = 0.5, 0.4
-  resolved(c)
+  t = _trained(resolved(c))
   # lo: 1.0 s / 0.1; ray: 0.2 s / 0.01; hi: 0.8 s / 0.2
-  assert (c.lo.budget_steps, c.ray.budget_steps, c.hi.budget_steps) == (10, 20, 4)
+  assert (t.lo.budget_steps, t.ray.budget_steps, t.hi.budget_steps) == (10, 20, 4)
   infos = pipeline.run(finish(c), str(tmp_path / "run"))
   assert {n: i["step"] for n, i in infos.items()} == {"lo": 10, "ray": 20, "hi": 4}
   assert infos["hi"]["reference_end_s"] == pytest.approx(2.0)
@@ -214,20 +220,24 @@ def test_a_self_measured_stage_fixes_its_count_once_and_keeps_it(scene_root, tmp
   protocol.budget(c, 3.0)
   c.step_table = str(tmp_path / "empty.json")
   resolved(c)
-  assert c.hi.max_seconds == pytest.approx(3.0)
+  assert _trained(c).hi.max_seconds == pytest.approx(3.0)  # the budget's share, in the plan
+  assert c.hi.max_seconds == 0.0                          # the user's field stays as asked
   wd = str(tmp_path / "run")
   infos = pipeline.run(finish(c), wd)
   fixed = budget.read_fixed(wd, "hi")
   assert infos["hi"]["step"] == fixed["steps"] == infos["hi"]["fixed_steps"]
   # its 3 s less the set-up it did before its loop, in its own steps
-  assert 0.9 * 3.0 / fixed["step_s"] <= fixed["steps"] <= budget.fixed_count(c.hi, fixed["step_s"])
+  assert 0.9 * 3.0 / fixed["step_s"] <= fixed["steps"] <= budget.fixed_count(_trained(c).hi,
+                                                                           fixed["step_s"])
   # a relaunch keeps the count it fixed: nothing is left to train
   again = pipeline.run(finish(c), wd)
   assert again["hi"]["step"] == fixed["steps"]
 
 
 def _stages(c) -> dict:
-  return {n: c[n].to_dict() for n in ("lo", "ray", "hi")}
+  """The stages as they train (the plan laid over them)."""
+  t = _trained(c)
+  return {n: t[n].to_dict() for n in ("lo", "ray", "hi")}
 
 
 @pytest.mark.parametrize("scene", ["configs/llff.py:fern_4view", "configs/blender.py:lego_8view"])
@@ -257,7 +267,8 @@ def test_a_budget_on_the_command_line_resolves_as_one_in_the_file(scene, tmp_pat
     config_flags.DEFINE_config_file("config", None, "scene", flag_values=fv, sys_argv=argv)
     fv(argv)
     launched[name] = cli.config_of_flags(fv["config"], "halo")
-  assert launched["line"].hi.init_from_lo and launched["line"].hi.encoding.with_lo
+  assert _trained(launched["line"]).hi.init_from_lo
+  assert _trained(launched["line"]).hi.encoding.with_lo
   assert _stages(launched["line"]) == _stages(launched["file"])
   # and the method applied to an already budgeted scene gives the same again
   assert _stages(editable(configure.load_scene(str(in_file)), "halo")) == \
@@ -267,13 +278,62 @@ def test_a_budget_on_the_command_line_resolves_as_one_in_the_file(scene, tmp_pat
 def test_a_budget_given_after_the_method_still_copies_lo_and_paper_does_not():
   c = configure.load("configs/llff.py:fern_4view", "halo",
                      {"protocol": "budget", "budget_s": 180.0})
-  assert c.hi.init_from_lo and c.hi.encoding.with_lo
+  assert _trained(c).hi.init_from_lo and _trained(c).hi.encoding.with_lo
+  assert c.plan.hi.encoding.with_lo and not c.hi.encoding.with_lo  # the protocol's, apart
   again = configure.finish(c)
   assert _stages(again) == _stages(c)  # idempotent
   cpu_as_paper = configure.load("configs/llff.py:fern_4view_cpu", "halo",
                                 {"protocol": "paper", "budget_s": 0.0})
-  assert not (cpu_as_paper.hi.init_from_lo or cpu_as_paper.hi.encoding.with_lo)
+  assert not (_trained(cpu_as_paper).hi.init_from_lo
+              or _trained(cpu_as_paper).hi.encoding.with_lo)
   # an explicit choice stands: the copy is the method's field, not forced
   fresh = configure.load("configs/llff.py:fern_4view_cpu", "halo",
                          {"hi.copy_lo_under_budget": False})
-  assert not (fresh.hi.init_from_lo or fresh.hi.encoding.with_lo)
+  assert not (_trained(fresh).hi.init_from_lo or _trained(fresh).hi.encoding.with_lo)
+
+
+def test_resolve_writes_the_plan_and_leaves_the_asked_fields_as_they_are():
+  """What the protocol works out is a section of its own: the stage fields a
+  user sets are the same before and after resolve, under every protocol,
+  and the stages train with the plan laid over them."""
+  for spec, method in (("configs/llff.py:fern_4view_cpu", "halo"),
+                       ("configs/blender.py:lego_oneside_cpu", "halo_authors"),
+                       ("configs/dnerf.py:hook_cpu", "nerf_tuned")):
+    for over in ({}, {"protocol": "paper", "budget_s": 0.0},
+                 {"protocol": "steps", "budget_s": 0.0, "hi.stop_at_step": 7}):
+      c = configure.load(spec, method, over)
+      asked = frozen.thaw(c)
+      del asked["plan"]
+      again = frozen.thaw(c)
+      protocol.resolve(again, order.graph(again))
+      del again["plan"]
+      assert again.to_dict() == asked.to_dict(), (spec, method, over)
+      t = _trained(c)
+      assert "plan" not in t
+      for name, fields in c.plan.items():
+        for dotted, value in config_files.dotted_fields(fields.to_dict()).items():
+          node = t[name]
+          for part in dotted.split("."):
+            node = node[part]
+          assert node == value, (spec, method, name, dotted)
+  # the authors' recipe spans its schedules over the steps a budget gives:
+  # in the plan; its `steps` as the method states them
+  a = configure.load("configs/blender.py:lego_oneside_cpu", "halo_authors")
+  assert a.hi.steps == 6000 and a.plan.hi.steps == _trained(a).hi.budget_steps < 6000
+
+
+def test_a_workdir_started_before_the_plan_was_a_section_relaunches(tmp_path):
+  """A workdir whose config.json holds the protocol's fields in its stages
+  (the layout before `plan`) matches the same run composed now, and not
+  another one."""
+  from halo_jax.stages import workdir as workdirs
+  c = configure.load("configs/llff.py:fern_4view_cpu", "halo")
+  old = protocol.applied(json.loads(c.to_json_best_effort()))
+  assert "plan" not in old and old["hi"]["encoding"]["with_lo"] and old["hi"]["budget_steps"] > 0
+  (tmp_path / "config.json").write_text(json.dumps(old))
+  workdirs.check_workdir(c, str(tmp_path))
+  other = configure.load("configs/llff.py:fern_4view_cpu", "halo", {"hi.batch_rays": 256})
+  with pytest.raises(workdirs.WorkdirMismatch, match="hi.batch_rays"):
+    workdirs.check_workdir(other, str(tmp_path))
+  # and a config without a plan is its own effective value
+  assert protocol.effective(protocol.effective(c)).to_dict() == protocol.effective(c).to_dict()

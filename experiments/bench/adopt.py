@@ -9,7 +9,7 @@ import subprocess
 
 from absl import logging
 
-from halo_jax import config_files, defaults
+from halo_jax import config_files, defaults, protocol
 from experiments.bench import git_state
 from experiments.bench import benchmark, code_version, suites
 
@@ -20,7 +20,9 @@ def _comparable(resolved: dict) -> dict:
   """A resolved config's dotted fields, its scene folder without the
   machine's data root (or, for a built-in scene, the scratch folder it was
   generated in)."""
-  out = config_files.dotted_fields(resolved)  # a new dict: `resolved` is not changed
+  # as the stages train it (a plan laid over its stages), so that a record
+  # written before the plan was a section of its own compares alike
+  out = config_files.dotted_fields(protocol.applied(resolved))
   if out.get("data.kind") == "procedural":
     out.pop("data.root", None)
   elif out.get("data.root"):

@@ -2,6 +2,7 @@
 study (suites.BUDGET_STUDY: 60, 240 and 960 reference seconds): a default
 changes only where it is not worse by more than 0.3 dB on any scene of its
 kind at any of them, and better on the mean (docs/validation.md)."""
+from halo_jax import protocol
 from experiments.bench import suites
 from experiments.bench.study_types import BASELINE, Study, Variant, hi_lr as _hi_lr
 
@@ -143,8 +144,8 @@ def _halo_hi_steps(scene: suites.Scene, budget_s: float) -> int:
   import dataclasses  # pylint: disable=import-outside-toplevel
   from experiments.bench import benchmark  # pylint: disable=import-outside-toplevel
   terms = dataclasses.replace(suites.CPU, budget_s=budget_s)
-  return benchmark.configure(terms, scene, "halo", 0, "budget",
-                             "/tmp/halo_study_steps").hi.budget_steps
+  return protocol.effective(benchmark.configure(terms, scene, "halo", 0, "budget",
+                                                "/tmp/halo_study_steps")).hi.budget_steps
 
 
 def _knights_steps_study(budget_s: float) -> Study:

@@ -67,9 +67,9 @@ def stage_steps(suite_cfg) -> dict:
   """{stage: steps} of the fingerprint run: the last switch the suite's run
   of the stage crosses, plus the log intervals the collapse check needs to
   judge steps after it (collapse.MIN_RECORDS + 1)."""
-  out = {}
+  out, trained = {}, protocol.effective(suite_cfg)
   for name in needed(suite_cfg, suite_cfg.final_stage):
-    cfg = suite_cfg[name]
+    cfg = trained[name]
     reached = cfg.budget_steps or cfg.steps
     crossed = [v for v in (_get(cfg, f) for f in SWITCHES) if v and 0 < v <= reached]
     out[name] = max(crossed, default=0) + (collapse.MIN_RECORDS + 1) * max(cfg.log_every, 1)
@@ -90,12 +90,15 @@ def fingerprint_table(config, counts: dict) -> dict:
   """A step table ({'entries': {key: entry}}) under which `config`'s budget
   gives each stage exactly counts[stage] steps (no set-up time)."""
   names = needed(config, config.final_stage)
+  # keyed as the stages train (a budget's copy of Lo widens Hi's input); resolved
+  # against the shipped table, since the one written here does not exist yet
+  keyed = protocol.effective(finish(frozen.replaced(config, {"step_table": ""})))
   shares = {n: config.budget_shares[n] for n in names}
   total = sum(shares.values())
   entries = {}
   for n in names:
     share_s = config.budget_s * shares[n] / total
-    entries[step_table.key(config, n)] = {"step_s": share_s / counts[n], "setup_s": 0.0,
+    entries[step_table.key(keyed, n)] = {"step_s": share_s / counts[n], "setup_s": 0.0,
                                           "source": "fingerprint"}
   return {"machine": {"source": "fingerprint run (experiments/bench/fingerprint.py)"},
           "entries": entries}
@@ -113,11 +116,12 @@ def configure(scene: suites.Scene, method: str, workdir: str):
   for name in counts:
     c[name].checkpoint_every = 10 * counts[name]
   c.step_table = os.path.join(workdir, "fingerprint_steps.json")
+  table = fingerprint_table(c, counts)
   with open(c.step_table, "w") as f:
-    json.dump(fingerprint_table(c, counts), f)
+    json.dump(table, f)
   protocol.budget(c, full.budget_s)
   c = finish(c)
-  counts = {n: int(c[n].budget_steps) for n in counts}
+  counts = {n: int(protocol.effective(c)[n].budget_steps) for n in counts}
   return c, counts
 
 

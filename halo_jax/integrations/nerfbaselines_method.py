@@ -142,6 +142,9 @@ class HaloMethod:
       self.config_spec = meta.get("config", "")
     else:
       self.config, self.config_spec = make_config(self.scene.kind, overrides)
+    # the stages as they train (the protocol's plan laid over them): what a
+    # stage's parameters, renderer and step count are read from
+    self.trained = protocol.effective(self.config)
     self.loaded_step = meta.get("step")
     self._paced: Optional[pacing.Paced] = None
     self._last: Optional[pacing.StepRecord] = None
@@ -159,7 +162,7 @@ class HaloMethod:
 
   def num_iterations(self) -> int:
     """One iteration a training step of each stage the method's output needs."""
-    return sum(budget.last_step(self.config[n]) for n in order.needed(self.config))
+    return sum(budget.last_step(self.trained[n]) for n in order.needed(self.trained))
 
   # Training.
   def train_iteration(self, step: int) -> Dict[str, float]:
@@ -178,7 +181,7 @@ class HaloMethod:
   # Rendering.
   def _finished_states(self):
     """{name: StageState} of the stages finished in the workdir."""
-    return restore.stage_states(self.workdir, self.config, self.scene.dataset,
+    return restore.stage_states(self.workdir, self.trained, self.scene.dataset,
                                 [n for n in order.needed(self.config)
                                  if restore.finished(self.workdir, n)])
 
@@ -192,13 +195,13 @@ class HaloMethod:
       names = list(states)
       if live:
         rec = self._last
-        states[rec.stage] = state.StageState(rec.params, rec.step, self.config, rec.stage)
+        states[rec.stage] = state.StageState(rec.params, rec.step, self.trained, rec.stage)
         names.append(rec.stage)
-      drawn = [n for n in names if base.trainer_of(self.config, n).renderer is not None]
+      drawn = [n for n in names if base.trainer_of(self.trained, n).renderer is not None]
       if not drawn:
         raise RuntimeError("nothing to render yet: no stage that makes images has a step")
       name = drawn[-1]
-      self._renderers[key] = base.renderer_of(self.config, name, self.scene.dataset, states)
+      self._renderers[key] = base.renderer_of(self.trained, name, self.scene.dataset, states)
     return self._renderers[key]
 
   def render(self, camera, *, options=None) -> Dict[str, np.ndarray]:
@@ -238,13 +241,13 @@ class HaloMethod:
 
   def _is_last(self, rec) -> bool:
     names = order.needed(self.config)
-    return rec.stage == names[-1] and rec.step == budget.last_step(self.config[names[-1]])
+    return rec.stage == names[-1] and rec.step == budget.last_step(self.trained[names[-1]])
 
   def _taken(self) -> int:
     """Iterations taken so far: finished stages' steps and the current stage's."""
     names, rec = order.needed(self.config), self._last
     done = names[:names.index(rec.stage)]
-    return sum(budget.last_step(self.config[n]) for n in done) + rec.step
+    return sum(budget.last_step(self.trained[n]) for n in done) + rec.step
 
   def save(self, path: str) -> None:
     step = self._settle()

@@ -5,7 +5,7 @@ import fnmatch
 import json
 import os
 
-from halo_jax import checkpoint, parallel
+from halo_jax import checkpoint, parallel, protocol
 
 # Fields that say which stages run, how long or how often to log, evaluate and
 # save, and the frequency search's settings (a search's choice is kept in
@@ -45,7 +45,9 @@ def check_workdir(config, workdir: str) -> None:
       before = json.load(f)
   except json.JSONDecodeError as e:
     raise WorkdirMismatch(f"{path}: malformed JSON ({e}); not a halo-jax workdir?") from e
-  a, b = _flatten(before), _flatten(now)
+  # compared as the stages train them: a workdir started before the plan
+  # was a section of its own (its stages held those fields) still matches
+  a, b = _flatten(protocol.applied(before)), _flatten(protocol.applied(now))
   differ = sorted(k for k in set(a) | set(b) if a.get(k, "<absent>") != b.get(k, "<absent>")
                   and not any(fnmatch.fnmatchcase(k, p) for p in RELAUNCH_FIELDS))
   if differ:
