@@ -71,11 +71,19 @@ def test_records_pool_by_fingerprint_and_the_rest_is_set_aside(tmp_path):
 
 def test_a_code_tree_changes_exactly_when_the_training_code_does():
   head = _history()
-  touched = _git("log", "-n", "1", "--format=%H", head, "--", "halo_jax").strip()
+  # the last commit that changed a file of the code (not only the data beside it)
+  code = [f":(exclude){d}" for d in git_state.DATA_FILES]
+  touched = _git("log", "-n", "1", "--format=%H", head, "--", "halo_jax", *code).strip()
   untouched = [c for c in _git("log", "-n", "40", "--format=%H", head).split()
                if not _git("diff", "--name-only", f"{c}~1", c, "--",
                            *git_state.TRAINING_CODE)]
   assert git_state.code_tree(touched) != git_state.code_tree(f"{touched}~1")
+  # a commit that changed only the step table keeps its tree (the table's digest sees it)
+  data_only = [c for c in _git("log", "-n", "40", "--format=%H", head).split()
+               if _git("diff", "--name-only", f"{c}~1", c, "--", *git_state.TRAINING_CODE)
+               .split() == list(git_state.DATA_FILES)]
+  if data_only:
+    assert git_state.code_tree(data_only[0]) == git_state.code_tree(f"{data_only[0]}~1")
   if untouched:
     c = untouched[0]
     assert git_state.code_tree(c) == git_state.code_tree(f"{c}~1")
