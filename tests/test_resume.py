@@ -162,7 +162,7 @@ def test_workdir_of_another_config_is_refused(config, scene_root, tmp_path):
   pipeline.run(finish(config), wd)
   # Longer training and other stages are fine in the same workdir...
   config.lo.steps = 8
-  stages.check_workdir(config, wd)
+  stages.check_workdir(finish(config), wd)
   # ...a different model or encoding is not.
   config.lo.encoding.L = 7
   config.lo.model.width = 48
