@@ -47,6 +47,11 @@ def study(all_suites) -> dict:
   return out
 
 
+def scene_kind(by_method) -> str:
+  """The scene kind of a scene's records ({method: [record]})."""
+  return code_version.kind_of(next(r for rs in by_method.values() for r in rs)["config"])
+
+
 def every_scene(all_suites, suite="budget_960") -> dict:
   """{scene: {method: [record]}} of `suite` on every validation scene it
   covers, in the validation suite's order."""
@@ -63,7 +68,7 @@ def every_scene_lines(runs, budget_s: float) -> list:
   for s, by in runs.items():
     x = lead(by)
     bad = collapsed_methods(by, (METHOD, BASELINE))
-    kind = code_version.kind_of(next(r for rs in by.values() for r in rs)["config"])
+    kind = scene_kind(by)
     cells = [f"{np.mean([r['psnr'] for r in by[m]]):.2f} ({len(by[m])})" if m in by else "-"
              for m in (METHOD, BASELINE)]
     rows.append(f"| {kind} | {s} | {cells[0]} | {cells[1]} | "
@@ -90,9 +95,8 @@ def goals_line(runs, wanted: int) -> str:
   kept = [x for s, x in leads.items() if s not in gone]
   kinds = {}
   for s in leads:
-    recs = runs[s][METHOD]
-    if any("lo" in r.get("stages", {}) for r in recs):  # a kind whose HALO has a Lo stage
-      kinds.setdefault(code_version.kind_of(recs[0]["config"]), []).append(leads[s])
+    if any("lo" in r.get("stages", {}) for r in runs[s][METHOD]):  # HALO has a Lo stage there
+      kinds.setdefault(scene_kind(runs[s]), []).append(leads[s])
   short = {k: float(np.mean(v)) for k, v in sorted(kinds.items()) if np.mean(v) < GOAL_KIND_DB}
   met = lambda ok: "met" if ok else "**not met**"  # noqa: E731
   part = f" ({len(leads)} of {wanted} scenes so far)" if len(leads) < wanted else ""
@@ -115,7 +119,7 @@ def every_scene_summary(runs) -> str:
     if collapsed_methods(by, (METHOD, BASELINE)):
       gone.add(s)
     if lead(by) is not None:
-      kind = code_version.kind_of(next(r for rs in by.values() for r in rs)["config"])
+      kind = scene_kind(by)
       kinds.setdefault(kind, []).append((s, lead(by)))
   pairs = [(s, x) for v in kinds.values() for s, x in v]
   if not pairs:

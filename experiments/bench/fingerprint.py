@@ -121,7 +121,8 @@ def configure(scene: suites.Scene, method: str, workdir: str):
     json.dump(table, f)
   protocol.budget(c, full.budget_s)
   c = finish(c)
-  counts = {n: int(protocol.effective(c)[n].budget_steps) for n in counts}
+  trained = protocol.effective(c)
+  counts = {n: int(trained[n].budget_steps) for n in counts}
   return c, counts
 
 
