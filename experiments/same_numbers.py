@@ -26,13 +26,20 @@ its own script in a worktree of it with --record there):
   python -m experiments.same_numbers --out=/tmp/head.json --record
   python -m experiments.same_numbers --out=/tmp/old.json --record --commit=1f8ac84
 
+--study=NAME runs the same fingerprint runs for a time study (studies.py) at
+its budget: its reference and the other variants of its method on each of its
+scenes, each with its own overrides, and writes results/identity/NAME.json
+(experiments/bench/identity.py): whether each variant is the reference, to
+the last digit, at that budget, so its rule judges it only where it differs:
+
+  python -m experiments.same_numbers --study=hi_window_60 --out=/tmp/id60.json --procs=2
+
 The runs use one thread on one core (set at the top of this script): XLA
 splits its CPU reductions by thread count, and the last bits of a figure
 would follow it. Scenes whose data folder is absent under $HALO_DATA are
 skipped and say so. Runs are independent, so --shard=i/n splits them over
 processes (one per core).
 """
-import dataclasses
 import json
 import os
 import shutil
@@ -55,9 +62,10 @@ os.environ["XLA_FLAGS"] = (os.environ.get("XLA_FLAGS", "")
 
 from absl import app, flags, logging  # noqa: E402
 
-from halo_jax import datasets, defaults, pipeline, progress  # noqa: E402
-from experiments.bench import code_version, fingerprint, git_state, suites  # noqa: E402
-from halo_jax.stages import collapse  # noqa: E402
+from halo_jax import defaults, progress  # noqa: E402
+from experiments.bench import (ablations, code_version, fingerprint, git_state, identity,  # noqa: E402
+                               suites)
+from experiments.bench.studies import STUDIES  # noqa: E402
 
 FLAGS = flags.FLAGS
 flags.DEFINE_string("out", None, "JSON file the figures are written to (after each run; "
@@ -72,6 +80,9 @@ flags.DEFINE_float("tolerance_db", 0.0, "largest PSNR difference reported as equ
 flags.DEFINE_string("methods", "", "comma-separated methods to run ('': every method of each scene)")
 flags.DEFINE_bool("record", False, "store each method's fingerprint in results/fingerprints.json "
                   "(refused from a checkout whose training code is modified)")
+flags.DEFINE_enum("study", "", [""] + sorted(STUDIES), "a time study: fingerprint its "
+                  "reference and the variants of its method on its scenes, and write whether "
+                  "each is identical at the study's budget (results/identity/)")
 flags.DEFINE_string("commit", "", "measure this commit instead of the checkout: a temporary git "
                     "worktree of it runs this script")
 
@@ -93,25 +104,23 @@ def scene_list():
   return out
 
 
-def first_views(views, k):
-  """The first k of a Views-like dataclass (every per-view field cut)."""
-  n = len(views.names)
-  cut = {f.name: getattr(views, f.name)[:k] for f in dataclasses.fields(views)
-         if getattr(views, f.name) is not None and hasattr(getattr(views, f.name), "__len__")
-         and len(getattr(views, f.name)) == n}
-  return dataclasses.replace(views, **cut)
-
-
-def run_one(scene, method, workdir):
-  """The fingerprint run's figures (fingerprint.figures)."""
-  c, _ = fingerprint.configure(scene, method, workdir)
-  ds = datasets.load(c.data, workdir)
-  ds = dataclasses.replace(ds, test=first_views(ds.test, FLAGS.views))
-  try:
-    infos, collapsed = pipeline.run(c, workdir, ds), ""
-  except collapse.Collapsed as e:  # an outcome like any other figure
-    infos, collapsed = e.infos, e.stage
-  return fingerprint.figures(workdir, infos, c.final_stage, collapsed)
+def planned(data_root: str):
+  """([(key, scene, method, terms, overrides)], [missing scene's line]): the
+  fingerprint runs to make, those of scenes whose data is under data_root.
+  With --study: the study's reference and the other variants of its method
+  on each of its scenes (identity.runs), on its terms; else each scene's
+  methods on the CPU suite's."""
+  if FLAGS.study:
+    study = STUDIES[FLAGS.study]
+    on = ablations.terms(study)
+    wanted = [(f"{s.name}/{v.name}", s, v.method, on, ablations.run_overrides(study, v))
+              for s, v in identity.runs(study)]
+  else:
+    wanted = [(f"{s.name}/{m}", s, m, suites.CPU, ()) for s, ms in scene_list() for m in ms]
+  has = lambda s: not s.needs or os.path.isdir(os.path.join(data_root, s.needs))  # noqa: E731
+  missing = sorted({f"{s.name} (no {os.path.join(data_root, s.needs)})"
+                    for _, s, *_ in wanted if not has(s)})
+  return [w for w in wanted if has(w[1])], missing
 
 
 def differences(before, after, tol):
@@ -203,12 +212,14 @@ def main(argv):
     if state["code_dirty"] or not state["code_tree"]:
       sys.exit("error: --record needs a checkout whose training code "
                f"({', '.join(git_state.TRAINING_CODE)}) is committed and unmodified")
+  if FLAGS.study and (FLAGS.record or FLAGS.commit):
+    sys.exit("error: --study checks a study's variants on this checkout; it records no "
+             "fingerprint and measures no other commit")
+  if FLAGS.study and STUDIES[FLAGS.study].budget != "time":
+    sys.exit(f"error: --study={FLAGS.study}: a study at matched steps has no budget to be "
+             "identical at")
   data_root = os.environ.get("HALO_DATA", defaults.data_root(""))
-  todo = [(scene, m) for scene, methods in scene_list() for m in methods
-          if not scene.needs or os.path.isdir(os.path.join(data_root, scene.needs))]
-  missing = [f"{scene.name} (no {os.path.join(data_root, scene.needs)})"
-             for scene, _ in scene_list()
-             if scene.needs and not os.path.isdir(os.path.join(data_root, scene.needs))]
+  todo, missing = planned(data_root)
   if missing and FLAGS.record:  # a fingerprint covers every scene kind, or is not recorded
     sys.exit(f"error: --record needs every scene's data; missing: {', '.join(missing)} "
              "(set HALO_DATA)")
@@ -229,12 +240,11 @@ def main(argv):
     results.update(run_shards())
   else:
     shard, num_shards = (int(x) for x in FLAGS.shard.split("/"))
-    mine = [(scene, method) for i, (scene, method) in enumerate(todo)
-            if i % num_shards == shard and f"{scene.name}/{method}" not in results]
-    for scene, method in progress.steps(mine, "runs", "fingerprint runs"):
-      key = f"{scene.name}/{method}"
+    mine = [run for i, run in enumerate(todo) if i % num_shards == shard and run[0] not in results]
+    for key, scene, method, on, overrides in progress.steps(mine, "runs", "fingerprint runs"):
       with tempfile.TemporaryDirectory(prefix="same_numbers_") as workdir:
-        results[key] = dict(run_one(scene, method, workdir), code_tree=tree)
+        results[key] = dict(fingerprint.run(scene, method, workdir, FLAGS.views, on, overrides),
+                            code_tree=tree)
       r = results[key]
       print(f"{key}: steps {r['steps']}, psnr {[round(p, 4) for p in r['psnr']]}"
             + (f", collapsed at {r['collapsed']}" if r["collapsed"] else ""), flush=True)
@@ -251,6 +261,12 @@ def main(argv):
     print("\n".join(lines) if lines else f"same numbers on all {len(results)} runs")
     if lines:
       sys.exit(1)
+  if FLAGS.study and FLAGS.shard == "0/1":
+    found = identity.verdicts(STUDIES[FLAGS.study], results)
+    print(identity.write(FLAGS.study, STUDIES[FLAGS.study].budget_s, found))
+    for v, scenes in found.items():
+      print(f"{v}: " + ", ".join(f"{s} {'identical' if same else 'differs'}"
+                                 for s, same in scenes.items()))
   if FLAGS.record:
     print(code_version.record(state["commit"], results, FLAGS.views,
                               digests=code_version.step_table_digests()))

@@ -207,3 +207,61 @@ def test_an_adopted_record_names_its_source_by_path_hash_and_commit(tmp_path):
   committed = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))),
                            "results", "faults.json")
   assert len(adopt.source(committed, os.path.dirname(committed))["commit"] or "") == 40
+
+
+def _one_budget_study(budget_s=60.0):
+  from experiments.bench import suites
+  from experiments.bench.study_types import Study, Variant
+  scenes = tuple(suites.Scene(n, "configs/procedural.py:spheres_8view_cpu", 2) for n in ("a", "b"))
+  return Study("t", "q", scenes, (Variant("ref", "halo"), Variant("new", "halo"),
+                                  Variant("nerf_tuned", "nerf_tuned")), "ref", 2,
+               budget="time", front=False, budget_s=budget_s)
+
+
+def test_a_variant_identical_at_the_budget_is_not_judged_there():
+  """The fingerprint's identity on every scene stands for runs; on some
+  scenes only, the runs are judged as ever."""
+  from experiments.bench import ablations
+  study = _one_budget_study()
+  recs = {(s, v): [{"scene": s, "seed": k, "psnr": 20.0 + (v == "new") * 0.5} for k in range(2)]
+          for s in ("a", "b") for v in ("ref", "new")}
+  assert ablations.default_rule(study, {}, "new", {"a": True, "b": True}).startswith("identical")
+  assert ablations.default_rule(study, recs, "new", {"a": True, "b": False}) == "passes"
+  assert ablations.default_rule(study, {}, "new", {"a": True}) == "not measured: a, b"
+
+
+def test_a_variant_is_judged_over_its_family_where_it_differs():
+  from experiments.bench import ablations
+  same = "identical: the reference to the last digit"
+  assert ablations.judged_across({60.0: same, 240.0: same, 960.0: "passes"}) == \
+      "passes at 960 s (identical at 60, 240 s)"
+  assert ablations.judged_across({60.0: "passes", 960.0: "passes"}) == "passes at 60, 960 s"
+  assert ablations.judged_across({60.0: same, 960.0: "fails: a -0.40"}) == \
+      "fails at 960 s: a -0.40"
+  assert ablations.judged_across({60.0: same, 960.0: "not measured: a"}) == \
+      "not measured at 960 s"
+  assert ablations.judged_across({60.0: "fails: b -0.50", 960.0: "passes"}) == \
+      "fails at 60 s: b -0.50"
+  assert ablations.judged_across({60.0: same, 240.0: same}) == \
+      "not measured: identical at every budget"
+
+
+def test_identity_compares_each_variant_of_the_method_with_the_reference():
+  from experiments.bench import identity
+  study = _one_budget_study()
+  assert [(s.name, v.name) for s, v in identity.runs(study)] == \
+      [("a", "ref"), ("a", "new"), ("b", "ref"), ("b", "new")]   # nerf_tuned is another method
+  figs = {"a/ref": {"psnr": [20.0]}, "a/new": {"psnr": [20.0]},
+          "b/ref": {"psnr": [20.0]}, "b/new": {"psnr": [20.1]}}
+  assert identity.verdicts(study, figs) == {"new": {"a": True, "b": False}}
+  del figs["b/new"]
+  assert identity.verdicts(study, figs) == {"new": {"a": True}}
+
+
+def test_every_budget_study_belongs_to_a_family_of_the_budget_study():
+  from experiments.bench import budget_studies, suites
+  for name in budget_studies.STUDIES:
+    family = budget_studies.family_of(name)
+    assert sorted(family) == sorted(suites.BUDGET_STUDY.values()), name
+    assert all(budget_studies.STUDIES[n].budget_s == b for b, n in family.items())
+  assert budget_studies.family_of("fog") == {}

@@ -3,6 +3,7 @@ import json
 import os
 
 import numpy as np
+import pytest
 
 from experiments.bench import fronts_report, report, suite_tables
 
@@ -423,9 +424,9 @@ def test_the_largest_budget_is_reported_on_every_validation_scene_with_and_witho
   lines = budget_report.every_scene_lines(runs, 960.0)
   text = "\n".join(lines)
   assert "(3 of 12 so far" in text
-  assert "| blender | lego_8view | 22.50 (2) | 22.00 (2) | +0.50 | 2 | none |" in text
-  assert "| procedural | thin | 20.00 (1) | 10.00 (1) | +10.00 | 2 | nerf_tuned |" in text
-  assert "| dnerf | dnerf_hook | 18.00 (1) | 19.00 (1) | -1.00 | 3 | none |" in text
+  assert "| blender | lego_8view | 22.50 (2) | 22.00 (2) | +0.50 | - | 2 | none |" in text
+  assert "| procedural | thin | 20.00 (1) | 10.00 (1) | +10.00 | - | 2 | nerf_tuned |" in text
+  assert "| dnerf | dnerf_hook | 18.00 (1) | 19.00 (1) | -1.00 | - | 3 | none |" in text
   # the mean of +0.50, +10.00, -1.00; without thin, of +0.50 and -1.00
   assert ("Ahead on 2 of 3; mean +3.17 dB (each scene weighs the same), -0.25 dB without the "
           "scenes where a run collapsed (thin). Per kind: blender +0.50 (1); dnerf -1.00 (1); "
@@ -436,3 +437,36 @@ def test_the_largest_budget_is_reported_on_every_validation_scene_with_and_witho
           "mean at least +1.0 dB where neither method collapsed: **not met** (-0.25); each kind "
           "with a Lo stage at least +0.5 dB: **not met** (dnerf -1.00).") in text
   assert budget_report.every_scene_lines({}, 960.0) == []
+  # beside each kind's host spread: a margin no larger is inside it
+  text = "\n".join(budget_report.every_scene_lines(runs, 960.0, {"dnerf": 1.2, "blender": 0.1}))
+  assert "| dnerf | dnerf_hook | 18.00 (1) | 19.00 (1) | -1.00 | ±1.20 (inside) | 3 | none |" in text
+  assert "| blender | lego_8view | 22.50 (2) | 22.00 (2) | +0.50 | ±0.10 | 2 | none |" in text
+  assert "(behind: dnerf_hook -1.00, inside its kind's host spread ±1.20)" in text
+
+
+def test_the_host_spread_is_each_kinds_largest_move_of_a_reruns_margin(tmp_path):
+  from experiments.bench import code_version, host_spread
+  lego, hook = "configs/blender.py:lego_8view_cpu", "configs/dnerf.py:hook_cpu"
+  rec = lambda p, cfg, seed=0: dict(_budget_record(p, cfg), seed=seed)  # noqa: E731
+  runs = {"lego_8view": {"halo": [rec(22.0, lego), rec(23.0, lego, 1)],
+                         "nerf_tuned": [rec(21.0, lego), rec(22.0, lego, 1)]},
+          "dnerf_hook": {"halo": [rec(18.0, hook)], "nerf_tuned": [rec(19.0, hook)]},
+          "knights": {"halo": [rec(27.0, "configs/llff.py:knights_cpu")]}}
+  again = {"lego_8view": {"halo": rec(22.3, lego), "nerf_tuned": rec(21.1, lego)},
+           "dnerf_hook": {"halo": rec(17.0, hook), "nerf_tuned": rec(19.5, hook)},
+           "knights": {"halo": rec(27.0, "configs/llff.py:knights_cpu")}}  # no pair
+  for scene, by in again.items():
+    for m, r in by.items():
+      d = tmp_path / "budget_960" / "rerun" / scene / m
+      d.mkdir(parents=True)
+      (d / "seed0.json").write_text(json.dumps(r))
+  found = host_spread.pairs(runs, host_spread.reruns(str(tmp_path), "budget_960"))
+  assert sorted(found) == ["dnerf_hook", "lego_8view"]
+  # margins +1.00 -> +1.20 on lego, -1.00 -> -2.50 on hook (seed 0's records only)
+  assert found["lego_8view"]["moved"] == pytest.approx(0.2)
+  assert found["dnerf_hook"]["moved"] == pytest.approx(-1.5)
+  spread = host_spread.by_kind(found, code_version.kind_of)
+  assert spread == pytest.approx({"blender": 0.2, "dnerf": 1.5})
+  text = "\n".join(host_spread.lines(found, code_version.kind_of, 960.0))
+  assert "| dnerf | dnerf_hook | 18.00 → 17.00 | 19.00 → 19.50 | -1.00 → -2.50 | -1.50 |" in text
+  assert "Largest move of a margin: 1.50 dB; median 0.85 dB over 2 pairs." in text

@@ -38,8 +38,9 @@ import traceback
 
 from absl import flags, logging
 
-from experiments.bench import (adopt, benchmark, code_version, fronts_report, gap_report,
-                               git_state, report_common, run_file, selection, suites, tool)
+from experiments.bench import (adopt, benchmark, budget_studies, code_version, fronts_report,
+                               gap_report, git_state, identity, report_common, run_file,
+                               selection, suites, tool)
 from experiments.bench.paths import REPO
 from experiments.bench.studies import MATCHED_STEPS, STUDIES, Study, Variant  # noqa: F401
 from halo_jax import frozen, progress, protocol, runs
@@ -48,7 +49,7 @@ from halo_jax.configure import finish
 FLAGS = flags.FLAGS
 
 
-def _terms(study: Study) -> suites.Suite:
+def terms(study: Study) -> suites.Suite:
   """The CPU suite's terms (at the study's own budget, with the curve of the
   budget study's suite of it) on the study's scenes' validation views."""
   terms = suites.CPU
@@ -84,11 +85,17 @@ def matched_steps(results: str, scene: suites.Scene) -> dict:
   return dict(MATCHED_STEPS[scene.name])
 
 
+def run_overrides(study: Study, variant: Variant) -> tuple:
+  """The overrides a study's run of `variant` composes: the variant's, and
+  no front where the study scores none."""
+  no_front = (("eval.front_s", ()),) if study.budget == "time" and not study.front else ()
+  return tuple(variant.overrides) + no_front
+
+
 def configure(study: Study, scene: suites.Scene, variant: Variant, seed: int, scratch: str,
               results: str):
-  no_front = (("eval.front_s", ()),) if study.budget == "time" and not study.front else ()
-  c = benchmark.configure(_terms(study), scene, variant.method, seed, "budget", scratch,
-                          tuple(variant.overrides) + no_front)
+  c = benchmark.configure(terms(study), scene, variant.method, seed, "budget", scratch,
+                          run_overrides(study, variant))
   if study.budget == "time":
     return c
   # equal steps: the suite run's counts as caps on the composed run
@@ -180,13 +187,22 @@ def _overall(study: Study, recs) -> list:
 MIN_SEEDS, MAX_LOSS_DB = 2, 0.3
 
 
-def default_rule(study: Study, recs, variant: str) -> str:
+IDENTICAL = "identical"
+
+
+def default_rule(study: Study, recs, variant: str, identical=None) -> str:
   """Whether `variant` may replace the reference as the default
   (docs/validation.md): with MIN_SEEDS seeds on every scene, its mean loses
   no more than MAX_LOSS_DB on any scene, and the mean over scenes (each
   weighs the same) is a gain. 'passes', 'fails: <scenes and their mean Δ>',
   'fails: no gain on the mean (<Δ>)' or 'not measured: <scenes short of
-  seeds>'."""
+  seeds>'; or, where `identical` ({scene: bool}, identity.py's fingerprint
+  runs at the study's budget) holds on every scene, 'identical: ...': the
+  variant is the reference here, and is judged at the budgets where it
+  differs (judged_across)."""
+  if identical and all(identical.get(s.name) for s in study.scenes):
+    return (f"{IDENTICAL}: the reference to the last digit at {study.budget_s:g} s "
+            "(fingerprint runs on every scene), judged where it differs")
   by_scene = {}
   for r, ref in _pairs(study, recs, variant):
     by_scene.setdefault(r["scene"], []).append(r["psnr"] - ref["psnr"])
@@ -208,16 +224,63 @@ def default_rule(study: Study, recs, variant: str) -> str:
   return "passes"
 
 
-def _rule_lines(study: Study, recs) -> list:
-  rows = [f"| `{v.name}` | {default_rule(study, recs, v.name)} |" for v in study.variants
-          if v.name != study.reference and v.method == study.variants[0].method]
-  if not rows:
+def judged_across(verdicts: dict) -> str:
+  """A variant's verdict over the budgets of its family ({budget_s: its
+  default_rule verdict there}): judged at the budgets where it differs from
+  the reference, and only there. 'fails at B s: ...' where it fails at one;
+  else 'not measured at B s' where one lacks runs; else 'passes at B s
+  (identical at C s)'; 'not measured: identical at every budget' when no
+  budget sets it apart."""
+  differs = {b: v for b, v in sorted(verdicts.items()) if not v.startswith(IDENTICAL)}
+  same = [b for b, v in sorted(verdicts.items()) if v.startswith(IDENTICAL)]
+  at = lambda bs: ", ".join(f"{b:g}" for b in bs) + " s"  # noqa: E731
+  if not differs:
+    return "not measured: identical at every budget"
+  failed = [f"at {b:g} s: {v[len('fails: '):]}" for b, v in differs.items()
+            if v.startswith("fails")]
+  if failed:
+    return "fails " + "; ".join(failed)
+  short = [b for b, v in differs.items() if v != "passes"]
+  if short:
+    return f"not measured at {at(short)}"
+  return f"passes at {at(differs)}" + (f" (identical at {at(same)})" if same else "")
+
+
+def _family_verdicts(study_name: str, variant: str, results: str) -> dict:
+  """{budget_s: default_rule verdict} of `variant` in each study of
+  `study_name`'s family that has it ({} for a study of one budget)."""
+  out = {}
+  for b, name in budget_studies.family_of(study_name).items():
+    other = STUDIES[name]
+    if any(v.name == variant for v in other.variants):
+      out[b] = default_rule(other, read_records(results, name), variant,
+                            identity.read(name, os.path.join(results, "identity")).get(variant))
+  return out
+
+
+def _rule_lines(study_name: str, study: Study, recs, results: str) -> list:
+  same = identity.read(study_name, os.path.join(results, "identity"))
+  names = [v.name for v in study.variants
+           if v.name != study.reference and v.method == study.variants[0].method]
+  if not names:
     return []
+  family = budget_studies.family_of(study_name)
+  rows = []
+  for name in names:
+    here = default_rule(study, recs, name, same.get(name))
+    across = judged_across(_family_verdicts(study_name, name, results)) if family else ""
+    rows.append(f"| `{name}` | {here} |" + (f" {across} |" if family else ""))
   return ["", "## Against the default rule", "",
           f"A variant may replace `{study.reference}` only if, on at least {MIN_SEEDS} seeds of "
           f"every scene of the study, its mean loss on no scene exceeds {MAX_LOSS_DB} dB "
           "and its mean over the scenes (each weighs the same) is a gain "
-          "(docs/validation.md).", "", "| variant | verdict |", "|---|---|"] + rows
+          "(docs/validation.md). A variant that fingerprint runs show to be the reference "
+          "to the last digit at this budget (`python -m experiments.same_numbers "
+          f"--study={study_name}`) is judged at the budgets where it differs"
+          + (" (the last column: this question at " + ", ".join(f"{b:g}" for b in family)
+             + " s)" if family else "") + ".", "",
+          "| variant | verdict |" + (" over the budgets |" if family else ""),
+          "|---|---|" + ("---|" if family else "")] + rows
 
 
 def _overall_fronts(study: Study, recs) -> list:
@@ -248,7 +311,7 @@ def _overall_fronts(study: Study, recs) -> list:
 
 def _terms_text(study: Study) -> str:
   if study.budget == "time":
-    return (f"CPU suite terms: {_terms(study).budget_s:g} s of training on one core"
+    return (f"CPU suite terms: {terms(study).budget_s:g} s of training on one core"
             + (", each run's state saved at the suite's front times" if study.front else
                ", scored at the end"))
   return ("CPU suite terms at matched steps (each stage stops at the steps the suite's "
@@ -311,7 +374,7 @@ def report(study_name: str, study: Study, results: str) -> str:
                                      for r in sorted(rs, key=lambda r: r["seed"]))
           for v, rs in rows if rs) + "."]
   lines += _overall(study, recs) + gap_report.lines(study, recs)
-  lines += _rule_lines(study, recs)
+  lines += _rule_lines(study_name, study, recs, results)
   lines += [""] + report_common.collapse_lines(
       [(f"{scene}/{variant}/seed{r['seed']}", r) for (scene, variant), rs in sorted(recs.items())
        for r in rs])
@@ -369,7 +432,7 @@ def main(argv):
     failed, runnable = [], []
     for scene, variant, seed in todo:
       path = result_path(FLAGS.results, FLAGS.study, scene, variant, seed)
-      state = benchmark._state(path, scene, _terms(study))  # pylint: disable=protected-access
+      state = benchmark._state(path, scene, terms(study))  # pylint: disable=protected-access
       if FLAGS.dry_run or state != "to run":
         print(f"{state:8} {scene.name}/{variant.name}/seed{seed}", flush=True)
       else:

@@ -18,7 +18,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # pylint: disable=g-import-not-at-top
 import numpy as np  # pylint: disable=g-import-not-at-top
 
-from experiments.bench import code_version, probe_report, suites  # pylint: disable=g-import-not-at-top
+from experiments.bench import code_version, host_spread, probe_report, suites  # pylint: disable=g-import-not-at-top
 from experiments.bench.report_common import BASELINE, collapsed_methods, stat  # pylint: disable=g-import-not-at-top
 
 METHOD = "halo"
@@ -59,11 +59,21 @@ def every_scene(all_suites, suite="budget_960") -> dict:
   return {s.name: runs[s.name] for s in suites.SUITES[suite].scenes if s.name in runs}
 
 
-def every_scene_lines(runs, budget_s: float) -> list:
+def _spread_cell(x, spread):
+  """A margin beside its kind's host spread (None: not measured)."""
+  if spread is None:
+    return "-"
+  return f"±{spread:.2f}" + (" (inside)" if x is not None and abs(x) <= spread else "")
+
+
+def every_scene_lines(runs, budget_s: float, spread=None, found=None) -> list:
   """The page's section on the largest budget over every validation scene:
-  per scene both methods' mean and seeds, and per kind and overall the
-  mean lead with and without the scenes where a run collapsed."""
+  per scene both methods' mean and seeds, its kind's host spread
+  ({kind: dB}; host_spread.py) and per kind and overall the mean lead with
+  and without the scenes where a run collapsed; then the reruns (`found`,
+  host_spread.pairs) that measure the spread."""
   wanted = {s.name: s.seeds for s in suites.BUDGET_960.scenes}
+  spread = spread or {}
   rows = []
   for s, by in runs.items():
     x = lead(by)
@@ -72,23 +82,28 @@ def every_scene_lines(runs, budget_s: float) -> list:
     cells = [f"{np.mean([r['psnr'] for r in by[m]]):.2f} ({len(by[m])})" if m in by else "-"
              for m in (METHOD, BASELINE)]
     rows.append(f"| {kind} | {s} | {cells[0]} | {cells[1]} | "
-                + ("-" if x is None else f"{x:+.2f}") + f" | {wanted.get(s, '-')} | "
-                + (", ".join(bad) if bad else "none") + " |")
+                + ("-" if x is None else f"{x:+.2f}") + f" | {_spread_cell(x, spread.get(kind))} | "
+                + f"{wanted.get(s, '-')} | " + (", ".join(bad) if bad else "none") + " |")
   pairs = [s for s, by in runs.items() if lead(by) is not None]
   if not pairs:
     return []
   return [f"## {budget_s:g} s on every validation scene", "",
           f"halo against {BASELINE} at {budget_s:g} reference seconds on each validation scene "
           f"that has runs of both ({len(pairs)} of {len(wanted)} so far; the seeds wanted in "
-          "the `seeds` column). PSNR is the mean over seeds (seeds in brackets).", "",
-          f"| kind | scene | {METHOD} | {BASELINE} | Δ | seeds | collapsed |",
-          "|---|---|---|---|---|---|---|", *rows, "", every_scene_summary(runs) + ".", "",
-          goals_line(runs, len(wanted)), ""]
+          "the `seeds` column). PSNR is the mean over seeds (seeds in brackets); `host "
+          "spread` is the scene kind's (below), `inside` where the margin is no larger.", "",
+          f"| kind | scene | {METHOD} | {BASELINE} | Δ | host spread | seeds | collapsed |",
+          "|---|---|---|---|---|---|---|---|", *rows, "", every_scene_summary(runs) + ".", "",
+          goals_line(runs, len(wanted), spread), "",
+          *host_spread.lines(found or {}, code_version.kind_of, budget_s)]
 
 
-def goals_line(runs, wanted: int) -> str:
+def goals_line(runs, wanted: int, spread=None) -> str:
   """The study's goals (GOAL_*) against `runs`' leads, each met or not, the
-  scenes and kinds that miss one named (their mechanism is the probes')."""
+  scenes and kinds that miss one named (their mechanism is the probes'), a
+  scene behind marked where its margin is inside its kind's host spread
+  ({kind: dB})."""
+  spread = spread or {}
   leads = {s: lead(by) for s, by in runs.items() if lead(by) is not None}
   gone = {s for s, by in runs.items() if collapsed_methods(by, (METHOD, BASELINE))}
   behind = {s: x for s, x in leads.items() if x <= 0}
@@ -103,7 +118,10 @@ def goals_line(runs, wanted: int) -> str:
   mean_kept = float(np.mean(kept)) if kept else float("nan")
   return (f"Goals{part}: ahead on all but {GOAL_BEHIND_AT_MOST}: "
           f"{met(len(behind) <= GOAL_BEHIND_AT_MOST)} (behind: "
-          + (", ".join(f"{s} {x:+.2f}" for s, x in behind.items()) or "none") + "); "
+          + (", ".join(f"{s} {x:+.2f}" + (
+              f", inside its kind's host spread ±{spread[scene_kind(runs[s])]:.2f}"
+              if abs(x) <= spread.get(scene_kind(runs[s]), -1.0) else "")
+              for s, x in behind.items()) or "none") + "); "
           f"mean at least {GOAL_MEAN_DB:+.1f} dB where neither method collapsed: "
           f"{met(mean_kept >= GOAL_MEAN_DB)} ({mean_kept:+.2f}); each kind with a Lo stage "
           f"at least {GOAL_KIND_DB:+.1f} dB: {met(not short)}"
@@ -388,7 +406,10 @@ def write(all_suites, docs, results="") -> str:
     out += [f"## {s}", "", head, "|---|" + "---|" * len(budgets), *rows, "",
             *(f"- {overfitting_sentence(m, overfitting(top[m]))}" for m in (BASELINE, METHOD)
               if m in top), "", f"![{s}]({png})", ""]
-  out += every_scene_lines(every_scene(all_suites), budgets[-1])
+  runs = every_scene(all_suites)
+  found = host_spread.pairs(runs, host_spread.reruns(results, "budget_960")) if results else {}
+  out += every_scene_lines(runs, budgets[-1], host_spread.by_kind(found, code_version.kind_of),
+                           found)
   if results:
     out += probe_report.other_scenes_section(results)
     out += probe_report.probe_section(probe_report.probes(results), by_budget, hi_minus_lo,

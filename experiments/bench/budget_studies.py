@@ -195,11 +195,23 @@ def _lo_teacher_study(kind: str, budget_s: float) -> Study:
       reference="halo", seeds=2, budget="time", front=False, budget_s=budget_s)
 
 
-STUDIES = {
-    **{f"hi_window_{b:g}": _hi_window_study(b) for b in suites.BUDGET_STUDY.values()},
-    **{f"lo_teacher_{k}_{b:g}": _lo_teacher_study(k, b) for k in ("dynamic", "360")
-       for b in suites.BUDGET_STUDY.values()},
-    **{f"ndc_ray_{b:g}": _ndc_ray_study(b) for b in suites.BUDGET_STUDY.values()},
-    **{f"dynamic_hi_{b:g}": _dynamic_hi_study(b) for b in suites.BUDGET_STUDY.values()},
-    **{f"knights_steps_{b:g}": _knights_steps_study(b) for b in suites.BUDGET_STUDY.values()},
+# Each family is one question asked at every budget of the budget study:
+# {family: the study at a budget}. A variant is judged over its family
+# (ablations.judged_across): at each budget where it differs from the reference.
+_FAMILIES = {
+    "hi_window": _hi_window_study,
+    "lo_teacher_dynamic": lambda b: _lo_teacher_study("dynamic", b),
+    "lo_teacher_360": lambda b: _lo_teacher_study("360", b),
+    "ndc_ray": _ndc_ray_study,
+    "dynamic_hi": _dynamic_hi_study,
+    "knights_steps": _knights_steps_study,
 }
+# {family: {budget_s: study name}}
+FAMILIES = {f: {b: f"{f}_{b:g}" for b in suites.BUDGET_STUDY.values()} for f in _FAMILIES}
+STUDIES = {name: _FAMILIES[f](b) for f, names in FAMILIES.items() for b, name in names.items()}
+
+
+def family_of(study_name: str) -> dict:
+  """{budget_s: study name} of the family `study_name` belongs to ({} for a
+  study asked at one budget only)."""
+  return next((names for names in FAMILIES.values() if study_name in names.values()), {})

@@ -21,6 +21,7 @@ held-out PSNR per view. code_version.py hashes them per method.
 This module is the measuring instrument: same_numbers.py --commit copies it,
 with the script, into a worktree of the commit it measures.
 """
+import dataclasses
 import json
 import os
 
@@ -32,7 +33,7 @@ from halo_jax.stages.order import needed
 
 # Stage fields at which a step schedule switches (a step count each; 0: none).
 SWITCHES = ("precrop_steps", "fg_steps", "collapse.after_steps", "empty.start_step",
-            "joint.alpha_steps")
+            "joint.alpha_steps", "sampler.dense_eval_after")
 
 # The sizes a fingerprint run shrinks, where the config has the field:
 # (dotted field under each stage, value); then fields of the whole config.
@@ -57,10 +58,12 @@ def _set_if_present(config, dotted, value):
     set_field(config, dotted, value)
 
 
-def suite_config(scene: suites.Scene, method: str, scratch: str):
-  """The CPU suite's seed-0 run of `scene` as `method`, resolved at the
-  suite's budget (benchmark.configure, mode 'budget')."""
-  return benchmark.configure(suites.CPU, scene, method, 0, "budget", scratch)
+def suite_config(scene: suites.Scene, method: str, scratch: str, terms=suites.CPU,
+                 overrides=()):
+  """The seed-0 run of `scene` as `method` on a suite's terms (the CPU
+  suite's, or a study's), with `overrides` ((dotted field, value) pairs),
+  resolved at the suite's budget (benchmark.configure, mode 'budget')."""
+  return benchmark.configure(terms, scene, method, 0, "budget", scratch, overrides)
 
 
 def stage_steps(suite_cfg) -> dict:
@@ -104,10 +107,11 @@ def fingerprint_table(config, counts: dict) -> dict:
           "entries": entries}
 
 
-def configure(scene: suites.Scene, method: str, workdir: str):
-  """(config, {stage: steps}): the fingerprint run of `scene` as `method`,
-  its table written under `workdir`."""
-  full = suite_config(scene, method, os.path.join(workdir, "scratch"))
+def configure(scene: suites.Scene, method: str, workdir: str, terms=suites.CPU, overrides=()):
+  """(config, {stage: steps}): the fingerprint run of `scene` as `method`
+  (on `terms` with `overrides`, as suite_config), its table written under
+  `workdir`."""
+  full = suite_config(scene, method, os.path.join(workdir, "scratch"), terms, overrides)
   counts = stage_steps(full)
   c = shrink(frozen.thaw(full))
   c.eval.lpips = False
@@ -124,6 +128,32 @@ def configure(scene: suites.Scene, method: str, workdir: str):
   trained = protocol.effective(c)
   counts = {n: int(trained[n].budget_steps) for n in counts}
   return c, counts
+
+
+def first_views(views, k):
+  """The first k of a Views-like dataclass (every per-view field cut)."""
+  n = len(views.names)
+  cut = {f.name: getattr(views, f.name)[:k] for f in dataclasses.fields(views)
+         if getattr(views, f.name) is not None and hasattr(getattr(views, f.name), "__len__")
+         and len(getattr(views, f.name)) == n}
+  return dataclasses.replace(views, **cut)
+
+
+def run(scene: suites.Scene, method: str, workdir: str, views: int, terms=suites.CPU,
+        overrides=()) -> dict:
+  """The fingerprint run of `scene` as `method` (on `terms` with
+  `overrides`, as configure) in `workdir`, scored on the first `views`
+  held-out views: its figures."""
+  from halo_jax import datasets, pipeline
+  os.makedirs(workdir, exist_ok=True)
+  c, _ = configure(scene, method, workdir, terms, overrides)
+  ds = datasets.load(c.data, workdir)
+  ds = dataclasses.replace(ds, test=first_views(ds.test, views))
+  try:
+    infos, collapsed = pipeline.run(c, workdir, ds), ""
+  except collapse.Collapsed as e:  # an outcome like any other figure
+    infos, collapsed = e.infos, e.stage
+  return figures(workdir, infos, c.final_stage, collapsed)
 
 
 def figures(workdir: str, infos: dict, final_stage: str, collapsed: str = "") -> dict:

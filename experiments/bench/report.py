@@ -32,7 +32,7 @@ from absl import flags
 import numpy as np
 
 from experiments.bench import (budget_report, ci_records, code_version, fronts_report,
-                               report_common, tool)
+                               host_spread, report_common, tool)
 from experiments.bench.paths import REPO
 from experiments.bench.report_common import (BASELINE, METHOD_ORDER, collapsed_methods,
                                           in_method_order, stat)
@@ -58,6 +58,8 @@ def load(results_root):
   for path in sorted(glob.glob(os.path.join(results_root, "*", "*", "*", "*", "seed*.json"))):
     suite, mode, scene, method = path.split(os.sep)[-5:-1]
     if suite in ("ablations", "trials"):  # reported by their studies and notes
+      continue
+    if mode == host_spread.MODE:  # a suite's runs trained again: the budget study's host spread
       continue
     with open(path) as f:
       out[(suite, mode)][scene].setdefault(method, []).append(json.load(f))
