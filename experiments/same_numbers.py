@@ -32,7 +32,8 @@ scenes, each with its own overrides, and writes results/identity/NAME.json
 (experiments/bench/identity.py): whether each variant is the reference, to
 the last digit, at that budget, so its rule judges it only where it differs:
 
-  python -m experiments.same_numbers --study=hi_window_60 --out=/tmp/id60.json --procs=2
+  python -m experiments.same_numbers --study=hi_window_60 --variants=dense_eval_2000 \
+      --out=/tmp/id60.json --procs=2
 
 The runs use one thread on one core (set at the top of this script): XLA
 splits its CPU reductions by thread count, and the last bits of a figure
@@ -83,6 +84,8 @@ flags.DEFINE_bool("record", False, "store each method's fingerprint in results/f
 flags.DEFINE_enum("study", "", [""] + sorted(STUDIES), "a time study: fingerprint its "
                   "reference and the variants of its method on its scenes, and write whether "
                   "each is identical at the study's budget (results/identity/)")
+flags.DEFINE_string("variants", "", "with --study: the variants to check (comma-separated; "
+                    "'': every variant of the reference's method)")
 flags.DEFINE_string("commit", "", "measure this commit instead of the checkout: a temporary git "
                     "worktree of it runs this script")
 
@@ -114,7 +117,7 @@ def planned(data_root: str):
     study = STUDIES[FLAGS.study]
     on = ablations.terms(study)
     wanted = [(f"{s.name}/{v.name}", s, v.method, on, ablations.run_overrides(study, v))
-              for s, v in identity.runs(study)]
+              for s, v in identity.runs(study, [n for n in FLAGS.variants.split(",") if n])]
   else:
     wanted = [(f"{s.name}/{m}", s, m, suites.CPU, ()) for s, ms in scene_list() for m in ms]
   has = lambda s: not s.needs or os.path.isdir(os.path.join(data_root, s.needs))  # noqa: E731
@@ -219,7 +222,10 @@ def main(argv):
     sys.exit(f"error: --study={FLAGS.study}: a study at matched steps has no budget to be "
              "identical at")
   data_root = os.environ.get("HALO_DATA", defaults.data_root(""))
-  todo, missing = planned(data_root)
+  try:
+    todo, missing = planned(data_root)
+  except ValueError as e:
+    sys.exit(f"error: --variants: {e}")
   if missing and FLAGS.record:  # a fingerprint covers every scene kind, or is not recorded
     sys.exit(f"error: --record needs every scene's data; missing: {', '.join(missing)} "
              "(set HALO_DATA)")

@@ -265,3 +265,31 @@ def test_every_budget_study_belongs_to_a_family_of_the_budget_study():
     assert sorted(family) == sorted(suites.BUDGET_STUDY.values()), name
     assert all(budget_studies.STUDIES[n].budget_s == b for b, n in family.items())
   assert budget_studies.family_of("fog") == {}
+
+
+def test_identity_checks_only_the_variants_asked_for():
+  from experiments.bench import identity
+  study = _one_budget_study()
+  assert [v.name for _, v in identity.runs(study, ["new"])] == ["ref", "new", "ref", "new"]
+  with pytest.raises(ValueError, match="nerf_tuned: not a variant of the study's method"):
+    identity.runs(study, ["nerf_tuned"])
+
+
+def test_the_dense_eval_switch_lies_between_his_steps_at_240_and_960_s():
+  """dense_eval's variant is identical at 60 and 240 s only if no scene's Hi
+  reaches the switch there; it is judged at 960 s only if every one does."""
+  from experiments.bench import budget_studies
+  study = budget_studies.STUDIES["hi_window_960"]
+  for scene in study.scenes:
+    at_240 = budget_studies._halo_hi_steps(scene, 240.0)  # pylint: disable=protected-access
+    at_960 = budget_studies._halo_hi_steps(scene, 960.0)  # pylint: disable=protected-access
+    assert at_240 < budget_studies.DENSE_EVAL_AFTER <= at_960, (scene.name, at_240, at_960)
+  # and the baseline's twin (nerf_tuned trains more steps in the same time)
+  import dataclasses  # pylint: disable=import-outside-toplevel
+  from experiments.bench import benchmark, suites  # pylint: disable=import-outside-toplevel
+  from halo_jax import protocol  # pylint: disable=import-outside-toplevel
+  for scene in study.scenes:
+    steps = [protocol.effective(benchmark.configure(
+        dataclasses.replace(suites.CPU, budget_s=b), scene, "nerf_tuned", 0, "budget",
+        "/tmp/halo_study_steps")).hi.budget_steps for b in (240.0, 960.0)]
+    assert steps[0] < budget_studies.DENSE_EVAL_AFTER <= steps[1], (scene.name, steps)

@@ -18,7 +18,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # pylint: disable=g-import-not-at-top
 import numpy as np  # pylint: disable=g-import-not-at-top
 
-from experiments.bench import code_version, host_spread, probe_report, suites  # pylint: disable=g-import-not-at-top
+from experiments.bench import budget_studies, code_version, host_spread, probe_report, suites  # pylint: disable=g-import-not-at-top
 from experiments.bench.report_common import BASELINE, collapsed_methods, stat  # pylint: disable=g-import-not-at-top
 
 METHOD = "halo"
@@ -412,6 +412,8 @@ def write(all_suites, docs, results="") -> str:
                            found)
   if results:
     out += probe_report.other_scenes_section(results)
+    out += probe_report.dense_eval_section(
+        results, budget_studies.STUDIES[f"hi_window_{budgets[-1]:g}"].scenes, budgets[-1])
     out += probe_report.probe_section(probe_report.probes(results), by_budget, hi_minus_lo,
                                       lead, overfit=falling_curve)
   with open(os.path.join(docs, f"{PAGE}.md"), "w") as f:

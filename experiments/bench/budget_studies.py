@@ -28,6 +28,18 @@ _FINE = (("hi.sampler.kind", "depth_guided_fine"), ("hi.sampler.num_coarse", 32)
          ("hi.sampler.num_samples", 32))
 
 
+# Held-out renders of a Hi that trained this long, densely over the whole ray
+# (sampler.dense_eval_after): past Hi's steps at 240 s on every scene the
+# window samples (fern_4view's 989 the most), short of them at 960 s (3468 the
+# least), so the variant is identical at 60 and 240 s (results/identity/).
+DENSE_EVAL_AFTER = 2000
+_DENSE_EVAL = (("hi.sampler.dense_eval_after", DENSE_EVAL_AFTER),
+               ("hi.sampler.dense_eval_samples", 64))
+# The same chance for the baseline: its own stratified sampler, twice its samples.
+_BASELINE_DENSE_EVAL = (("hi.sampler.dense_eval_after", DENSE_EVAL_AFTER),
+                        ("hi.sampler.dense_eval_samples", 128))
+
+
 def _hi_window_study(budget_s: float) -> Study:
   """Hi-NeRF's samples in and beside the ray field's window, at one budget of
   the budget study (docs/results/budget_study.md)."""
@@ -38,7 +50,9 @@ def _hi_window_study(budget_s: float) -> Study:
                 "over the whole ray (a surface the window misses can still form), at equal "
                 "cost; with a window that narrows from the whole ray; or with a fine pass "
                 "of 32 more samples drawn from the window's weights, at equal reference "
-                "time; on every scene whose Hi the window samples. `narrowing` and "
+                "time; or trained as it is and, once it has trained long, scored with its "
+                "held-out views rendered densely (and the baseline given the same); on "
+                "every scene whose Hi the window samples. `narrowing` and "
                 "`fine_32+32` keep the scene kind's full-range samples, so on fern_4view "
                 "they compare with `full_8` (its default)."),
       scenes=_DEPTH_GUIDED,
@@ -55,7 +69,15 @@ def _hi_window_study(budget_s: float) -> Study:
           Variant("fine_32+32", "halo", _FINE,
                   "32 samples in r = 0.3, then 32 drawn from their weights, composited "
                   "together (NeRF's fine pass in the window; fewer steps in the same time)"),
+          Variant(f"dense_eval_{DENSE_EVAL_AFTER}", "halo", _window() + _DENSE_EVAL,
+                  f"trained as `halo`; once Hi has trained {DENSE_EVAL_AFTER} steps (past its "
+                  "steps at 240 s on every scene here, short of them at 960 s), its held-out "
+                  "views are rendered with 64 samples stratified over the whole ray"),
           BASELINE,
+          Variant(f"nerf_tuned_dense_eval_{DENSE_EVAL_AFTER}", "nerf_tuned", _BASELINE_DENSE_EVAL,
+                  f"the baseline, trained as it is; once it has trained {DENSE_EVAL_AFTER} "
+                  "steps, its held-out views are rendered with twice its 64 samples (the "
+                  "same chance)"),
       ),
       reference="halo", seeds=2, budget="time", front=False, budget_s=budget_s)
 

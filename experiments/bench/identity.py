@@ -38,11 +38,17 @@ def read(study_name: str, root: str = ROOT) -> dict:
     return json.load(f).get("variants", {})
 
 
-def runs(study) -> list:
+def runs(study, names=()) -> list:
   """[(scene, variant), ...]: the fingerprint runs the check needs, the
-  reference and every other variant of its method on each scene."""
+  reference and every other variant of its method (those in `names`, when
+  given) on each scene."""
   ref = next(v for v in study.variants if v.name == study.reference)
-  others = [v for v in study.variants if v.method == ref.method and v.name != ref.name]
+  others = [v for v in study.variants if v.method == ref.method and v.name != ref.name
+            and (not names or v.name in names)]
+  unknown = set(names) - {v.name for v in others}
+  if unknown:
+    raise ValueError(f"{', '.join(sorted(unknown))}: not a variant of the study's method "
+                     f"beside its reference {study.reference!r}")
   return [(scene, v) for scene in study.scenes for v in (ref, *others)]
 
 
