@@ -27,7 +27,8 @@ its own script in a worktree of it with --record there):
   python -m experiments.same_numbers --out=/tmp/old.json --record --commit=1f8ac84
 
 --study=NAME runs the same fingerprint runs for a time study (studies.py) at
-its budget: its reference and the other variants of its method on each of its
+its budget: each variant and what it is checked against (the study's
+reference, or the plain baseline for the baseline's twins) on each of its
 scenes, each with its own overrides, and writes results/identity/NAME.json
 (experiments/bench/identity.py): whether each variant is the reference, to
 the last digit, at that budget, so its rule judges it only where it differs:
@@ -82,10 +83,10 @@ flags.DEFINE_string("methods", "", "comma-separated methods to run ('': every me
 flags.DEFINE_bool("record", False, "store each method's fingerprint in results/fingerprints.json "
                   "(refused from a checkout whose training code is modified)")
 flags.DEFINE_enum("study", "", [""] + sorted(STUDIES), "a time study: fingerprint its "
-                  "reference and the variants of its method on its scenes, and write whether "
-                  "each is identical at the study's budget (results/identity/)")
+                  "variants and their references on its scenes, and write whether each is "
+                  "identical at the study's budget (results/identity/)")
 flags.DEFINE_string("variants", "", "with --study: the variants to check (comma-separated; "
-                    "'': every variant of the reference's method)")
+                    "'': every variant with a reference to check it against)")
 flags.DEFINE_string("commit", "", "measure this commit instead of the checkout: a temporary git "
                     "worktree of it runs this script")
 
@@ -110,9 +111,9 @@ def scene_list():
 def planned(data_root: str):
   """([(key, scene, method, terms, overrides)], [missing scene's line]): the
   fingerprint runs to make, those of scenes whose data is under data_root.
-  With --study: the study's reference and the other variants of its method
-  on each of its scenes (identity.runs), on its terms; else each scene's
-  methods on the CPU suite's."""
+  With --study: each variant and what it is checked against on each of its
+  scenes (identity.runs), on its terms; else each scene's methods on the CPU
+  suite's."""
   if FLAGS.study:
     study = STUDIES[FLAGS.study]
     on = ablations.terms(study)

@@ -249,13 +249,23 @@ def test_a_variant_is_judged_over_its_family_where_it_differs():
 def test_identity_compares_each_variant_of_the_method_with_the_reference():
   from experiments.bench import identity
   study = _one_budget_study()
+  # the plain baseline is no variant of the reference: nothing to check it against
   assert [(s.name, v.name) for s, v in identity.runs(study)] == \
-      [("a", "ref"), ("a", "new"), ("b", "ref"), ("b", "new")]   # nerf_tuned is another method
+      [("a", "ref"), ("a", "new"), ("b", "ref"), ("b", "new")]
   figs = {"a/ref": {"psnr": [20.0]}, "a/new": {"psnr": [20.0]},
           "b/ref": {"psnr": [20.0]}, "b/new": {"psnr": [20.1]}}
   assert identity.verdicts(study, figs) == {"new": {"a": True, "b": False}}
   del figs["b/new"]
   assert identity.verdicts(study, figs) == {"new": {"a": True}}
+  # a twin of the baseline is checked against the baseline as it is
+  import dataclasses  # pylint: disable=import-outside-toplevel
+  from experiments.bench.study_types import Variant  # pylint: disable=import-outside-toplevel
+  twin = Variant("nerf_tuned_late", "nerf_tuned", (("hi.sampler.dense_eval_after", 9),))
+  study = dataclasses.replace(study, variants=study.variants + (twin,))
+  assert [v.name for s, v in identity.runs(study, ["nerf_tuned_late"]) if s.name == "a"] == \
+      ["nerf_tuned", "nerf_tuned_late"]
+  figs = {"a/nerf_tuned": {"psnr": [15.0]}, "a/nerf_tuned_late": {"psnr": [15.0]}}
+  assert identity.verdicts(study, figs) == {"nerf_tuned_late": {"a": True}}
 
 
 def test_every_budget_study_belongs_to_a_family_of_the_budget_study():
@@ -271,7 +281,7 @@ def test_identity_checks_only_the_variants_asked_for():
   from experiments.bench import identity
   study = _one_budget_study()
   assert [v.name for _, v in identity.runs(study, ["new"])] == ["ref", "new", "ref", "new"]
-  with pytest.raises(ValueError, match="nerf_tuned: not a variant of the study's method"):
+  with pytest.raises(ValueError, match="nerf_tuned: not a variant the study can check"):
     identity.runs(study, ["nerf_tuned"])
 
 

@@ -4,8 +4,10 @@ the study: a change that only acts after some step (a switch past the steps
 a stage trains at a short budget) need only be judged where it acts.
 
 The check runs, on each scene of a time study, the fingerprint run
-(fingerprint.py) of the reference and of each variant of its method, on the
-study's terms with their own overrides, and compares every figure it hashes. The
+(fingerprint.py) of each variant and of what it is checked against (the
+study's reference for a variant of its method, the plain method for the
+baseline's twins), on the study's terms with their own overrides, and
+compares every figure it hashes. The
 fingerprint run trains each stage past every step switch (fingerprint.
 SWITCHES) that the study's run of it crosses at the budget, so a switch the
 budget crosses is crossed there too and shows. Equal figures on every scene:
@@ -38,29 +40,44 @@ def read(study_name: str, root: str = ROOT) -> dict:
     return json.load(f).get("variants", {})
 
 
-def runs(study, names=()) -> list:
-  """[(scene, variant), ...]: the fingerprint runs the check needs, the
-  reference and every other variant of its method (those in `names`, when
-  given) on each scene."""
+def reference_of(study, variant):
+  """The variant `variant` is checked against: the study's reference for a
+  variant of its method; for another method's, that method as it is (the
+  variant named after it, with no overrides); None where the study has none."""
   ref = next(v for v in study.variants if v.name == study.reference)
-  others = [v for v in study.variants if v.method == ref.method and v.name != ref.name
-            and (not names or v.name in names)]
-  unknown = set(names) - {v.name for v in others}
+  if variant.method == ref.method:
+    return ref
+  return next((v for v in study.variants if v.name == variant.method and not v.overrides), None)
+
+
+def runs(study, names=()) -> list:
+  """[(scene, variant), ...]: the fingerprint runs the check needs: each
+  variant (those in `names`, when given) that has a reference to be checked
+  against (reference_of), and that reference, on each scene."""
+  refs = {v.name for v in study.variants if reference_of(study, v) is v}
+  checked = [v for v in study.variants if v.name not in refs and reference_of(study, v)
+             and (not names or v.name in names)]
+  unknown = set(names) - {v.name for v in checked}
   if unknown:
-    raise ValueError(f"{', '.join(sorted(unknown))}: not a variant of the study's method "
-                     f"beside its reference {study.reference!r}")
-  return [(scene, v) for scene in study.scenes for v in (ref, *others)]
+    raise ValueError(f"{', '.join(sorted(unknown))}: not a variant the study can check "
+                     f"against {study.reference!r} or its method as it is")
+  wanted = {reference_of(study, v).name for v in checked} | {v.name for v in checked}
+  return [(scene, v) for scene in study.scenes for v in study.variants if v.name in wanted]
 
 
 def verdicts(study, figures: dict) -> dict:
   """{variant: {scene: identical}} from fingerprint figures keyed
-  'scene/variant' (scenes whose reference or variant run is missing are
-  left out)."""
+  'scene/variant', each variant against its reference (reference_of; pairs
+  with a run missing are left out)."""
   out = {}
-  for scene, v in runs(study):
-    ref, got = figures.get(f"{scene.name}/{study.reference}"), figures.get(f"{scene.name}/{v.name}")
-    if v.name != study.reference and ref is not None and got is not None:
-      out.setdefault(v.name, {})[scene.name] = got == ref
+  for scene in study.scenes:
+    for v in study.variants:
+      ref = reference_of(study, v)
+      if ref is None or ref is v:
+        continue
+      theirs, ours = (figures.get(f"{scene.name}/{x.name}") for x in (ref, v))
+      if theirs is not None and ours is not None:
+        out.setdefault(v.name, {})[scene.name] = ours == theirs
   return out
 
 
