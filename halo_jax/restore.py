@@ -49,10 +49,34 @@ def stage_states(workdir: str, config, dataset, names) -> Dict[str, Any]:
           for n in names}
 
 
-def load(workdir: str, stage: Optional[str] = None, data_root: str = "") -> Restored:
+def _laid_over(config, fields):
+  """`config` with each (dotted field, value) of `fields` set; a field a run
+  stored before the field existed is added where today's base config has it
+  (KeyError naming any other unknown field)."""
+  from halo_jax import defaults  # pylint: disable=import-outside-toplevel
+  out, base_fields = frozen.thaw(config), None
+  for dotted, value in fields:
+    try:
+      frozen.set_field(out, dotted, value)
+    except KeyError:
+      base_fields = base_fields or defaults.base_config()
+      frozen.set_field(base_fields, dotted, value)  # raises for a field nowhere
+      *parents, leaf = dotted.split(".")
+      node = out
+      for p in parents:
+        node = node[p]
+      node[leaf] = value
+  return frozen.freeze(out)
+
+
+def load(workdir: str, stage: Optional[str] = None, data_root: str = "",
+         render_overrides=()) -> Restored:
   """Restores `stage` (default: default_stage) of the run in `workdir`.
 
   data_root replaces the config's data.root (for a run trained elsewhere).
+  render_overrides: (dotted field, value) pairs laid over the stored config
+  before the renderer is made (how the trained parameters are rendered,
+  e.g. `hi.sampler.dense_eval_after`; the parameters are as trained).
   Raises NothingToRestore naming the workdir and stage when there is none.
   """
   name = stage or default_stage(workdir)
@@ -67,6 +91,8 @@ def load(workdir: str, stage: Optional[str] = None, data_root: str = "") -> Rest
                            "images; choose one that does (e.g. --stage=hi)")
   if data_root:  # a new value: the run's config as stored, its scene elsewhere
     config = frozen.replaced(config, {"data.root": data_root})
+  if render_overrides:
+    config = _laid_over(config, render_overrides)
   dataset = datasets.load(config.data, workdir)
   states = stage_states(workdir, config, dataset, order.needed(config, name))
   return Restored(workdir, config, name, dataset, states,

@@ -39,8 +39,8 @@ import traceback
 from absl import flags, logging
 
 from experiments.bench import (adopt, benchmark, budget_studies, code_version, fronts_report,
-                               gap_report, git_state, identity, report_common, run_file,
-                               selection, suites, tool)
+                               gap_report, git_state, identity, report_common, rescore,
+                               run_file, selection, suites, tool)
 from experiments.bench.paths import REPO
 from experiments.bench.studies import MATCHED_STEPS, STUDIES, Study, Variant  # noqa: F401
 from halo_jax import frozen, progress, protocol, runs
@@ -128,6 +128,45 @@ def run_one(study_name, study, scene, variant, seed, results, scratch) -> dict:
                 run_seconds=round(time.time() - start, 1))
   run_file.write_json(result_path(results, study_name, scene, variant, seed), record)
   return record
+
+
+def rescore_one(study_name, study, scene, variant, seed, results, scratches) -> dict:
+  """The record of a variant that changes only how a run renders
+  (rescore.py): its reference's suite run, scored with its fields; writes it.
+  rescore.NotRenderOnly when it cannot be."""
+  ref = identity.reference_of(study, variant)
+  if ref is None or ref is variant:
+    raise rescore.NotRenderOnly("no reference to score it on")
+  c = configure(study, scene, variant, seed, "/tmp/halo_rescore", results)
+  rc = configure(study, scene, ref, seed, "/tmp/halo_rescore", results)
+  fields = rescore.render_fields(rc, c)
+  path, record, workdir = rescore.reference_run(rc, scene, ref.method, seed, results, scratches)
+  start = time.time()
+  record = rescore.rescored(record, workdir, fields, c.eval.lpips)
+  record.pop("per_view", None)
+  record.pop("adopted_from", None)
+  record["rescored_from"] = dict(adopt.source(path, results), workdir=workdir,
+                                 fields=[list(f) for f in fields])
+  record["provenance"] = dict(record.get("provenance") or {}, rescored_by=git_state.git_state())
+  record.update(study=study_name, scene=scene.name, config=scene.config, variant=variant.name,
+                method=variant.method, overrides=[list(o) for o in variant.overrides],
+                split=c.data.test_split, seed=seed,
+                stop_at_step={n: c[n].stop_at_step for n in record["stages"]},
+                run_seconds=round(time.time() - start, 1))
+  run_file.write_json(result_path(results, study_name, scene, variant, seed), record)
+  return record
+
+
+def _rescore_all(study, todo):
+  for scene, variant, seed in todo:
+    tag = f"{scene.name}/{variant.name}/seed{seed}"
+    try:
+      r = rescore_one(FLAGS.study, study, scene, variant, seed, FLAGS.results,
+                      FLAGS.rescore_from)
+    except rescore.NotRenderOnly as e:
+      print(f"not rescored {tag}: {e}", flush=True)
+      continue
+    print(f"rescored {tag}: {r['psnr']:.2f} (on {r['rescored_from']['path']})", flush=True)
 
 
 def read_records(results, study_name):
@@ -388,6 +427,12 @@ def report(study_name: str, study: Study, results: str) -> str:
   if adopted:
     lines += ["", f"{adopted} run(s) are a suite's runs of the same resolved config "
               "(`adopted_from` in the record), not run again."]
+  rescored = sum(1 for rs in recs.values() for r in rs if r.get("rescored_from"))
+  if rescored:
+    lines += ["", f"{rescored} run(s) change only how a trained run renders: each is its "
+              "reference's suite run scored again with the variant's fields "
+              "(`rescored_from` in the record; experiments/bench/rescore.py), not trained "
+              "again; its training figures and curve are the reference's."]
   lines += _fingerprint_lines(study, recs)
   return "\n".join(lines) + "\n"
 
@@ -415,6 +460,9 @@ def define_flags():
   flags.DEFINE_string("docs", os.path.join(REPO, "docs", "results"), "Report folder.")
   flags.DEFINE_integer("core", -1, "Pin to this one core (-1: the machine's last).")
   flags.DEFINE_bool("report_only", False, "Write the report from the result files only.")
+  flags.DEFINE_list("rescore_from", [], "Train nothing: score each variant that changes only "
+                    "how a run renders (rescore.RENDER_ONLY) on its reference's suite run, "
+                    "whose workdir is under one of these --scratch folders.")
 
 
 def main(argv):
@@ -437,6 +485,9 @@ def main(argv):
         print(f"{state:8} {scene.name}/{variant.name}/seed{seed}", flush=True)
       else:
         runnable.append((scene, variant, seed))
+    if FLAGS.rescore_from:
+      _rescore_all(study, runnable)
+      runnable = []
     for scene, variant, seed in progress.steps(runnable, "runs", f"study {FLAGS.study}"):
       tag = f"{scene.name}/{variant.name}/seed{seed}"
       try:

@@ -40,6 +40,9 @@ def _defaults() -> dict:
 # whole effect is in other resolved fields (init_from_lo, encoding.with_lo),
 # which are compared.
 STATED_FOR_RESOLVE = ("copy_lo_under_budget",)
+# Fields that name where other fields' values came from (the scene file's
+# sizes: 'paper' or 'cpu'), whose whole effect is in those fields.
+LABELS = ("sizing",)
 
 
 def _same_config(mine: dict, theirs: dict) -> bool:
@@ -48,9 +51,15 @@ def _same_config(mine: dict, theirs: dict) -> bool:
   behaviour before it: the code fingerprint checks that)."""
   base = _defaults()
   added = {k: v for k, v in mine.items()
-           if k not in theirs and k.rsplit(".", 1)[-1] not in STATED_FOR_RESOLVE}
+           if k not in theirs and k.rsplit(".", 1)[-1] not in STATED_FOR_RESOLVE + LABELS}
   return (all(mine.get(k) == v for k, v in theirs.items())
           and all(k in base and base[k] == v for k, v in added.items()))
+
+
+def same_resolved(mine: dict, theirs: dict) -> bool:
+  """Whether two resolved configs (JSON dicts, `theirs` possibly older)
+  train the same run, by the rule adoption uses."""
+  return _same_config(_comparable(mine), _comparable(theirs))
 
 
 def running_fingerprint(method: str, table: dict, config: str = "") -> str:
@@ -71,21 +80,30 @@ def identical_suite_run(c, scene, method, seed, results, table=None, mine_fp=Non
   fingerprint vouches for, is refused with a warning: its run is trained."""
   table = code_version.load() if table is None else table
   mine_fp = running_fingerprint(method, table, scene.config) if mine_fp is None else mine_fp
+  for path, record in same_config_runs(c, scene, method, seed, results):
+    theirs_fp = code_version.of_record(record, table)
+    if theirs_fp == mine_fp and mine_fp not in UNVOUCHED:
+      return path, record
+    logging.warning("not adopted: %s has this run's config, but its code's fingerprint "
+                    "is %s and this code's %s (same_numbers.py --record measures it)",
+                    path, theirs_fp, mine_fp)
+  return None
+
+
+def same_config_runs(c, scene, method, seed, results):
+  """[(path, record)] of the finished suite runs (mode 'budget') of `scene`,
+  `method` and `seed` whose resolved config is `c`'s (composed), whatever
+  code made them."""
   mine = _comparable(json.loads(c.to_json_best_effort()))  # c is composed: resolved
+  out = []
   for name in sorted(suites.SUITES):
     path = benchmark.result_path(results, name, "budget", scene, method, seed)
     if os.path.exists(path):
       with open(path) as f:
         record = json.load(f)
-      if not _same_config(mine, _comparable(record["resolved_config"])):
-        continue
-      theirs_fp = code_version.of_record(record, table)
-      if theirs_fp == mine_fp and mine_fp not in UNVOUCHED:
-        return path, record
-      logging.warning("not adopted: %s has this run's config, but its code's fingerprint "
-                      "is %s and this code's %s (same_numbers.py --record measures it)",
-                      path, theirs_fp, mine_fp)
-  return None
+      if _same_config(mine, _comparable(record["resolved_config"])):
+        out.append((path, record))
+  return out
 
 
 def source(path: str, results: str) -> dict:

@@ -68,9 +68,10 @@ def to_8bit(x):
 
 
 def run_evaluation(workdir, stage=None, split="test", views="", out=None, data_root="",
-                   with_lpips=True) -> dict:
-  """Renders, scores and writes; returns the metrics.json contents."""
-  run = restore.load(workdir, stage, data_root)
+                   with_lpips=True, render_overrides=()) -> dict:
+  """Renders, scores and writes; returns the metrics.json contents
+  (render_overrides: restore.load's)."""
+  run = restore.load(workdir, stage, data_root, render_overrides)
   vs = split_views(run, split, views)
   r = evaluate.render_views(run.render, vs, run.config.eval.chunk,
                             desc=f"evaluate {run.stage} on {split}")
