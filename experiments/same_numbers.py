@@ -270,7 +270,7 @@ def main(argv):
       sys.exit(1)
   if FLAGS.study and FLAGS.shard == "0/1":
     found = identity.verdicts(STUDIES[FLAGS.study], results)
-    print(identity.write(FLAGS.study, STUDIES[FLAGS.study].budget_s, found))
+    print(identity.write(FLAGS.study, STUDIES[FLAGS.study].budget_s, found, git=git))
     for v, scenes in found.items():
       print(f"{v}: " + ", ".join(f"{s} {'identical' if same else 'differs'}"
                                  for s, same in scenes.items()))

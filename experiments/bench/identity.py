@@ -20,6 +20,7 @@ writes results/identity/<study>.json: {"study", "budget_s", "variants":
 """
 import json
 import os
+import time
 
 from experiments.bench import git_state, run_file
 from experiments.bench.paths import REPO
@@ -81,13 +82,16 @@ def verdicts(study, figures: dict) -> dict:
   return out
 
 
-def write(study_name: str, budget_s: float, found: dict, root: str = ROOT) -> str:
-  """Merges `found` ({variant: {scene: bool}}) into the study's file;
-  returns its path."""
+def write(study_name: str, budget_s: float, found: dict, root: str = ROOT, git=None) -> str:
+  """Merges `found` ({variant: {scene: bool}}) into the study's file, with
+  the git state of the code that ran the fingerprints (`git`, taken when
+  they started; by default the checkout's now); returns its path."""
   p = path(study_name, root)
   old = read(study_name, root)
   for v, scenes in found.items():
     old.setdefault(v, {}).update(scenes)
-  run_file.write_json(p, git_state.stamp({"study": study_name, "budget_s": budget_s,
-                                          "variants": old}))
+  run_file.write_json(p, {"study": study_name, "budget_s": budget_s, "variants": old,
+                          "provenance": {"git": git or git_state.git_state(),
+                                         "time_utc": time.strftime("%Y-%m-%dT%H:%M:%SZ",
+                                                                   time.gmtime())}})
   return p
