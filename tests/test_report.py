@@ -470,3 +470,21 @@ def test_the_host_spread_is_each_kinds_largest_move_of_a_reruns_margin(tmp_path)
   text = "\n".join(host_spread.lines(found, code_version.kind_of, 960.0))
   assert "| dnerf | dnerf_hook | 18.00 → 17.00 | 19.00 → 19.50 | -1.00 → -2.50 | -1.50 |" in text
   assert "Largest move of a margin: 1.50 dB; median 0.85 dB over 2 pairs." in text
+
+
+def test_probe_retrains_of_the_same_code_join_the_host_spread():
+  from experiments.bench import host_spread
+  hook = "configs/dnerf.py:hook_cpu"
+  rec = lambda p, commit: {"psnr": p, "config": hook, "seed": 0,  # noqa: E731
+                           "provenance": {"git": {"commit": commit}}}
+  runs = {"dnerf_hook": {"halo": [rec(18.0, "a")], "nerf_tuned": [rec(19.0, "a")]}}
+  probe = {"scene": "dnerf_hook", "seed": 0, "record_psnr": {"halo": 18.5, "nerf_tuned": 18.0},
+           "runs": {"halo": {"commit": "b"}, "nerf_tuned": {"commit": "b"}}}
+  same = lambda record, git: True  # noqa: E731
+  found = host_spread.probe_pairs(runs, [probe], same)
+  assert list(found) == ["dnerf_hook (probe)"]
+  assert found["dnerf_hook (probe)"]["moved"] == pytest.approx(1.5)   # -1.0 -> +0.5
+  # another fingerprint's code, or the record's own runs probed, are no rerun
+  assert host_spread.probe_pairs(runs, [probe], lambda record, git: False) == {}
+  own = dict(probe, runs={"halo": {"commit": "a"}, "nerf_tuned": {"commit": "a"}})
+  assert host_spread.probe_pairs(runs, [own], same) == {}

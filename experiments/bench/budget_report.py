@@ -407,7 +407,17 @@ def write(all_suites, docs, results="") -> str:
             *(f"- {overfitting_sentence(m, overfitting(top[m]))}" for m in (BASELINE, METHOD)
               if m in top), "", f"![{s}]({png})", ""]
   runs = every_scene(all_suites)
-  found = host_spread.pairs(runs, host_spread.reruns(results, "budget_960")) if results else {}
+  found = {}
+  if results:
+    table = code_version.load()
+
+    def same_code(record, git):
+      fp = code_version.of_record(record, table)
+      return fp not in (code_version.UNMEASURED, code_version.MODIFIED) and fp == \
+          code_version.of_record(dict(record, provenance={"git": git}), table)
+    found = {**host_spread.pairs(runs, host_spread.reruns(results, "budget_960")),
+             **host_spread.probe_pairs(runs, [p for (b, _), ps in probe_report.probes(
+                 results).items() if b == budgets[-1] for p in ps], same_code)}
   out += every_scene_lines(runs, budgets[-1], host_spread.by_kind(found, code_version.kind_of),
                            found)
   if results:

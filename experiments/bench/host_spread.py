@@ -63,6 +63,38 @@ def pairs(runs: dict, again: dict, methods=("halo", "nerf_tuned")) -> dict:
   return out
 
 
+def probe_pairs(runs: dict, probes: list, same_code) -> dict:
+  """pairs()' entries from runs trained again for the budget probes in
+  earlier sessions (budget_probe.py: each probe file's `record_psnr` and
+  `runs`), where both methods' probed runs are of the same seed as a suite
+  record, of code that computes what the record's does (`same_code(record,
+  probed run's git) -> bool`: the same measured fingerprint), and at least
+  one was trained again (another commit than its record's)."""
+  out = {}
+  for p in probes:
+    scene, seed = p.get("scene"), p.get("seed")
+    mine = p.get("record_psnr", {})
+    first = {m: next((r for r in runs.get(scene, {}).get(m, []) if r.get("seed") == seed), None)
+             for m in mine}
+    if len(mine) < 2 or any(r is None for r in first.values()):
+      continue
+    git = p.get("runs", {})
+    if not all(same_code(first[m], git.get(m, {})) for m in mine):
+      continue
+    if all(git.get(m, {}).get("commit") == (first[m].get("provenance") or {}).get(
+        "git", {}).get("commit") for m in mine):
+      continue  # the record's own runs, probed where they were trained
+    a, b = sorted(mine, key=lambda m: m != "halo")
+    rec = {m: float(first[m]["psnr"]) for m in (a, b)}
+    new = {m: float(mine[m]) for m in (a, b)}
+    out[f"{scene} (probe)"] = {
+        "record": rec, "rerun": new, "moved": (new[a] - new[b]) - (rec[a] - rec[b]),
+        "seed": seed, "config": first[a]["config"],
+        "when": {m: [(first[m].get("provenance") or {}).get("time_utc", "?")[:10],
+                     (p.get("provenance") or {}).get("time_utc", "?")[:10]] for m in (a, b)}}
+  return out
+
+
 def by_kind(found: dict, kind_of) -> dict:
   """{kind: spread}: the largest |margin move| over each kind's pairs."""
   out = {}
@@ -85,11 +117,13 @@ def lines(found: dict, kind_of, budget_s: float, methods=("halo", "nerf_tuned"))
           + " |" for s, p in sorted(found.items(), key=lambda kv: kind_of(kv[1]["config"]))]
   moves = np.abs([p["moved"] for p in found.values()])
   return [f"### Host spread at {budget_s:g} s", "",
-          f"The seed-{next(iter(found.values()))['seed']} pair of one scene of each kind, "
-          "trained again in a later session on whatever host it got (the same steps: the "
-          "budget fixes them), against the suite's record (`results/budget_960/rerun/`, "
-          "experiments/bench/host_spread.py). A kind's spread is its pair's move of the "
-          "margin; the table above marks a margin no larger than its kind's spread.", "",
+          "The seed-0 pair of one scene of each kind, trained again in a later session on "
+          "whatever host it got (the same steps: the budget fixes them), against the suite's "
+          "record (`results/budget_960/rerun/`, experiments/bench/host_spread.py); and, "
+          "marked `(probe)`, the pairs trained again for the budget probes in earlier "
+          "sessions by code of the same measured fingerprint. A kind's spread is the largest "
+          "move of a margin among its pairs; the table above marks a margin no larger than "
+          "its kind's spread.", "",
           f"| kind | scene | {a}: record → rerun | {b}: record → rerun | Δ: record → rerun | "
           "margin moved | dates (record → rerun) |", "|---|---|---|---|---|---|---|", *rows, "",
           f"Largest move of a margin: {moves.max():.2f} dB; median {np.median(moves):.2f} dB "
