@@ -313,11 +313,12 @@ def _rule_lines(study_name: str, study: Study, recs, results: str) -> list:
           f"A variant may replace `{study.reference}` only if, on at least {MIN_SEEDS} seeds of "
           f"every scene of the study, its mean loss on no scene exceeds {MAX_LOSS_DB} dB "
           "and its mean over the scenes (each weighs the same) is a gain "
-          "(docs/validation.md). A variant that fingerprint runs show to be the reference "
-          "to the last digit at this budget (`python -m experiments.same_numbers "
-          f"--study={study_name}`) is judged at the budgets where it differs"
-          + (" (the last column: this question at " + ", ".join(f"{b:g}" for b in family)
-             + " s)" if family else "") + ".", "",
+          "(docs/validation.md)." + (
+              " A variant that fingerprint runs show to be the reference to the last digit at "
+              f"this budget (`python -m experiments.same_numbers --study={study_name}`) is "
+              "judged at the budgets where it differs" + (
+                  " (the last column: this question at " + ", ".join(f"{b:g}" for b in family)
+                  + " s)" if family else "") + "." if study.budget == "time" else ""), "",
           "| variant | verdict |" + (" over the budgets |" if family else ""),
           "|---|---|" + ("---|" if family else "")] + rows
 
