@@ -291,15 +291,11 @@ def test_the_dense_eval_switch_lies_between_his_steps_at_240_and_960_s():
   from experiments.bench import budget_studies
   study = budget_studies.STUDIES["hi_window_960"]
   for scene in study.scenes:
-    at_240 = budget_studies._halo_hi_steps(scene, 240.0)  # pylint: disable=protected-access
-    at_960 = budget_studies._halo_hi_steps(scene, 960.0)  # pylint: disable=protected-access
+    at_240 = budget_studies.hi_steps(scene, 240.0)
+    at_960 = budget_studies.hi_steps(scene, 960.0)
     assert at_240 < budget_studies.DENSE_EVAL_AFTER <= at_960, (scene.name, at_240, at_960)
   # and the baseline's twin (nerf_tuned trains more steps in the same time)
-  import dataclasses  # pylint: disable=import-outside-toplevel
-  from experiments.bench import benchmark, suites  # pylint: disable=import-outside-toplevel
-  from halo_jax import protocol  # pylint: disable=import-outside-toplevel
   for scene in study.scenes:
-    steps = [protocol.effective(benchmark.configure(
-        dataclasses.replace(suites.CPU, budget_s=b), scene, "nerf_tuned", 0, "budget",
-        "/tmp/halo_study_steps")).hi.budget_steps for b in (240.0, 960.0)]
+    steps = [budget_studies.hi_steps(scene, b, "nerf_tuned")
+             for b in (240.0, 960.0)]
     assert steps[0] < budget_studies.DENSE_EVAL_AFTER <= steps[1], (scene.name, steps)

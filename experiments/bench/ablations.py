@@ -108,6 +108,19 @@ def configure(study: Study, scene: suites.Scene, variant: Variant, seed: int, sc
   return finish(c)
 
 
+def _write(record, study_name, scene, variant, seed, c, results, start) -> dict:
+  """`record` with what names the study's run (its config `c`, started at
+  `start`), written to its result file; returns it."""
+  record.pop("per_view", None)
+  record.update(study=study_name, scene=scene.name, config=scene.config, variant=variant.name,
+                method=variant.method, overrides=[list(o) for o in variant.overrides],
+                split=c.data.test_split, seed=seed,
+                stop_at_step={n: c[n].stop_at_step for n in record["stages"]},
+                run_seconds=round(time.time() - start, 1))
+  run_file.write_json(result_path(results, study_name, scene, variant, seed), record)
+  return record
+
+
 def run_one(study_name, study, scene, variant, seed, results, scratch) -> dict:
   c = configure(study, scene, variant, seed, scratch, results)
   workdir = os.path.join(scratch, "ablations", study_name, scene.name, variant.name,
@@ -118,16 +131,9 @@ def run_one(study_name, study, scene, variant, seed, results, scratch) -> dict:
     record = dict(same[1], adopted_from=adopt.source(same[0], results))
   else:
     record = git_state.stamp(runs.run_method(c, workdir))
-  record.pop("per_view", None)
   if study.budget == "time" and study.front:
     record["front"] = benchmark.front_points(workdir, record, with_lpips=False)
-  record.update(study=study_name, scene=scene.name, config=scene.config, variant=variant.name,
-                method=variant.method, overrides=[list(o) for o in variant.overrides],
-                split=c.data.test_split, seed=seed,
-                stop_at_step={n: c[n].stop_at_step for n in record["stages"]},
-                run_seconds=round(time.time() - start, 1))
-  run_file.write_json(result_path(results, study_name, scene, variant, seed), record)
-  return record
+  return _write(record, study_name, scene, variant, seed, c, results, start)
 
 
 def rescore_one(study_name, study, scene, variant, seed, results, scratches) -> dict:
@@ -143,18 +149,11 @@ def rescore_one(study_name, study, scene, variant, seed, results, scratches) -> 
   path, record, workdir = rescore.reference_run(rc, scene, ref.method, seed, results, scratches)
   start = time.time()
   record = rescore.rescored(record, workdir, fields, c.eval.lpips)
-  record.pop("per_view", None)
   record.pop("adopted_from", None)
   record["rescored_from"] = dict(adopt.source(path, results), workdir=workdir,
                                  fields=[list(f) for f in fields])
   record["provenance"] = dict(record.get("provenance") or {}, rescored_by=git_state.git_state())
-  record.update(study=study_name, scene=scene.name, config=scene.config, variant=variant.name,
-                method=variant.method, overrides=[list(o) for o in variant.overrides],
-                split=c.data.test_split, seed=seed,
-                stop_at_step={n: c[n].stop_at_step for n in record["stages"]},
-                run_seconds=round(time.time() - start, 1))
-  run_file.write_json(result_path(results, study_name, scene, variant, seed), record)
-  return record
+  return _write(record, study_name, scene, variant, seed, c, results, start)
 
 
 def _rescore_all(study, todo):

@@ -160,13 +160,13 @@ def _dynamic_hi_study(budget_s: float) -> Study:
       reference="halo", seeds=2, budget="time", front=False, budget_s=budget_s)
 
 
-def _halo_hi_steps(scene: suites.Scene, budget_s: float) -> int:
-  """The steps halo's Hi-NeRF trains on `scene` at `budget_s` reference
-  seconds (the committed step table's count)."""
+def hi_steps(scene: suites.Scene, budget_s: float, method: str = "halo") -> int:
+  """The steps `method`'s Hi-NeRF (halo's by default) trains on `scene` at
+  `budget_s` reference seconds (the committed step table's count)."""
   import dataclasses  # pylint: disable=import-outside-toplevel
   from experiments.bench import benchmark  # pylint: disable=import-outside-toplevel
   terms = dataclasses.replace(suites.CPU, budget_s=budget_s)
-  return protocol.effective(benchmark.configure(terms, scene, "halo", 0, "budget",
+  return protocol.effective(benchmark.configure(terms, scene, method, 0, "budget",
                                                 "/tmp/halo_study_steps")).hi.budget_steps
 
 
@@ -174,7 +174,7 @@ def _knights_steps_study(budget_s: float) -> Study:
   """knights: how much of nerf_tuned's lead is the steps HALO's costlier
   step leaves out, at one budget of the budget study."""
   knights = tuple(s for s in suites.VALIDATION_SCENES if s.name == "knights")
-  steps = _halo_hi_steps(knights[0], budget_s)
+  steps = hi_steps(knights[0], budget_s)
   return Study(
       title=f"knights: nerf_tuned at HALO's step count, {budget_s:g} reference seconds",
       question=("How much of nerf_tuned's lead on the light field is the steps it gains "

@@ -35,35 +35,43 @@ def reruns(results: str, suite: str) -> dict:
   return out
 
 
+def _date(record) -> str:
+  return (record.get("provenance") or {}).get("time_utc", "?")[:10]
+
+
+def _pair(first: dict, again: dict, dates: dict, seed, methods) -> dict:
+  """One pair's entry: `first` {method: suite record}, `again` {method: the
+  rerun's PSNR}, `dates` {method: the rerun's date}."""
+  a, b = methods
+  rec = {m: float(first[m]["psnr"]) for m in methods}
+  new = {m: float(again[m]) for m in methods}
+  return {"record": rec, "rerun": new, "moved": (new[a] - new[b]) - (rec[a] - rec[b]),
+          "seed": seed, "config": first[a]["config"],
+          "when": {m: [_date(first[m]), dates[m]] for m in methods}}
+
+
+def _same_seed(runs, scene, method, seed):
+  """The suite record of `scene`, `method` and `seed` in `runs`, or None."""
+  return next((r for r in runs.get(scene, {}).get(method, []) if r.get("seed") == seed), None)
+
+
 def pairs(runs: dict, again: dict, methods=("halo", "nerf_tuned")) -> dict:
   """{scene: {'record': {method: psnr}, 'rerun': {method: psnr}, 'moved':
-  margin's move (rerun - record), 'kind'}} for each scene whose reruns of
-  both `methods` have a record of the same seed in `runs` ({scene: {method:
-  [record]}})."""
+  margin's move (rerun - record), 'seed', 'config', 'when'}} for each scene
+  whose reruns of both `methods` have a record of the same seed in `runs`
+  ({scene: {method: [record]}})."""
   out = {}
   for scene, by in again.items():
-    first = {}
-    for m in methods:
-      rerun = by.get(m)
-      match = [r for r in runs.get(scene, {}).get(m, [])
-               if rerun is not None and r.get("seed") == rerun.get("seed")]
-      if match:
-        first[m] = match[0]
-    if len(first) < len(methods):
+    if not all(m in by for m in methods):
       continue
-    rec = {m: float(first[m]["psnr"]) for m in methods}
-    new = {m: float(by[m]["psnr"]) for m in methods}
-    a, b = methods
-    out[scene] = {"record": rec, "rerun": new,
-                  "moved": (new[a] - new[b]) - (rec[a] - rec[b]),
-                  "seed": by[a].get("seed"), "config": first[a]["config"],
-                  "when": {m: [(first[m].get("provenance") or {}).get("time_utc", "?")[:10],
-                               (by[m].get("provenance") or {}).get("time_utc", "?")[:10]]
-                           for m in methods}}
+    first = {m: _same_seed(runs, scene, m, by[m].get("seed")) for m in methods}
+    if all(first.values()):
+      out[scene] = _pair(first, {m: by[m]["psnr"] for m in methods},
+                         {m: _date(by[m]) for m in methods}, by[methods[0]].get("seed"), methods)
   return out
 
 
-def probe_pairs(runs: dict, probes: list, same_code) -> dict:
+def probe_pairs(runs: dict, probes: list, same_code, methods=("halo", "nerf_tuned")) -> dict:
   """pairs()' entries from runs trained again for the budget probes in
   earlier sessions (budget_probe.py: each probe file's `record_psnr` and
   `runs`), where both methods' probed runs are of the same seed as a suite
@@ -72,26 +80,16 @@ def probe_pairs(runs: dict, probes: list, same_code) -> dict:
   one was trained again (another commit than its record's)."""
   out = {}
   for p in probes:
-    scene, seed = p.get("scene"), p.get("seed")
-    mine = p.get("record_psnr", {})
-    first = {m: next((r for r in runs.get(scene, {}).get(m, []) if r.get("seed") == seed), None)
-             for m in mine}
-    if len(mine) < 2 or any(r is None for r in first.values()):
+    scene, seed, mine, git = p.get("scene"), p.get("seed"), p.get("record_psnr", {}), p.get("runs", {})
+    if not all(m in mine for m in methods):
       continue
-    git = p.get("runs", {})
-    if not all(same_code(first[m], git.get(m, {})) for m in mine):
+    first = {m: _same_seed(runs, scene, m, seed) for m in methods}
+    if not all(first.values()) or not all(same_code(first[m], git.get(m, {})) for m in methods):
       continue
     if all(git.get(m, {}).get("commit") == (first[m].get("provenance") or {}).get(
-        "git", {}).get("commit") for m in mine):
+        "git", {}).get("commit") for m in methods):
       continue  # the record's own runs, probed where they were trained
-    a, b = sorted(mine, key=lambda m: m != "halo")
-    rec = {m: float(first[m]["psnr"]) for m in (a, b)}
-    new = {m: float(mine[m]) for m in (a, b)}
-    out[f"{scene} (probe)"] = {
-        "record": rec, "rerun": new, "moved": (new[a] - new[b]) - (rec[a] - rec[b]),
-        "seed": seed, "config": first[a]["config"],
-        "when": {m: [(first[m].get("provenance") or {}).get("time_utc", "?")[:10],
-                     (p.get("provenance") or {}).get("time_utc", "?")[:10]] for m in (a, b)}}
+    out[f"{scene} (probe)"] = _pair(first, mine, {m: _date(p) for m in methods}, seed, methods)
   return out
 
 

@@ -108,7 +108,6 @@ def rescored(record: dict, workdir: str, fields, with_lpips: bool) -> dict:
              num_views=r["num_views"])
   new["stages"] = dict(record["stages"], **{final: dict(record["stages"][final],
                                                          psnr=scores["psnr"])})
-  new["per_view"] = {v: {k: x for k, x in m.items() if k in ("psnr", "ssim", "lpips")}
-                     for v, m in r["float"].get("per_view", {}).items()}
+  new["per_view"] = r["float"]["per_view"]
   new.pop("validation", None)  # the suite's own scoring of its views, of the reference
   return new
