@@ -94,6 +94,9 @@ def _radiance_stage(L, scale, use_viewdirs, steps, num_samples, sampler):
       # held-out renders of a stage that trained at least dense_eval_after steps
       # (0: never) use dense_eval_samples stratified samples instead (stages/radiance.py)
       dense_eval_after=0, dense_eval_samples=64,
+      # after switch_step steps (0: never) the stage trains, and is scored, with
+      # switch_samples samples of kind switch_kind ('' : its own) (sampler_switch.py)
+      switch_step=0, switch_samples=64, switch_kind="",
   ))
   # L_unseen (stages/unseen.py): mean density at random points that fewer
   # than min_views training cameras see (weight 0: off; methods/halo_unseen.py)

@@ -4,6 +4,7 @@ frozen, and handed to the stages, so that a write after that point raises.
 What the run learns before a stage starts (the frequency search's encoding,
 a self-measuring stage's share of the budget) makes a new value
 (`replaced`); the run's value is never edited."""
+import copy
 import difflib
 from typing import Any, Dict
 
@@ -19,7 +20,12 @@ def freeze(config) -> Frozen:
 
 def thaw(config) -> ml_collections.ConfigDict:
   """A mutable deep copy of a (frozen or not) config."""
-  return ml_collections.ConfigDict(config if isinstance(config, Frozen) else config.to_dict())
+  if isinstance(config, Frozen):
+    # ConfigDict(frozen) shares its nested sections with the frozen value's
+    # own unfrozen copy, which later thaws of the whole config read: editing
+    # a thawed section would edit every later thaw (ml_collections 1.x)
+    return copy.deepcopy(ml_collections.ConfigDict(config))
+  return ml_collections.ConfigDict(config.to_dict())
 
 
 def replaced(config, fields: Dict[str, Any]) -> Frozen:

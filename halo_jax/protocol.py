@@ -32,7 +32,8 @@ measures its own count has no length before it starts; its schedules stay
 written against `steps`.
 
 The reference clock of a stage is `ref_offset_s + ref_setup_s + step *
-ref_step_s`: the front's snapshots (eval.front_s) and the held-out curve's
+ref_step_s` (past a sampler switch, halo_jax/sampler_switch.py, the steps
+after it at the table's `ref_after_step_s`: `reference_seconds`): the front's snapshots (eval.front_s) and the held-out curve's
 points (eval_every_s) are placed on it, so they fall at the same steps on any
 machine; records keep their own wall-clock beside it.
 
@@ -46,7 +47,8 @@ import math
 
 import ml_collections
 
-from halo_jax import config_files, frozen, registry, step_table
+from halo_jax import config_files, frozen, registry, sampler_switch, step_table
+from halo_jax.stages.budget import reference_seconds
 from halo_jax.stages.order import needed, stage_names
 
 KINDS = ("paper", "steps", "budget")
@@ -236,6 +238,12 @@ def _budget_steps(config, plan, final):
     cfg = config[name]
     until += parts[name]
     entry = None if measuring else table.get(step_table.key(config, name))
+    if entry is None and sampler_switch.switch_step(cfg):
+      raise registry.ConfigError(
+          f"{name}.sampler.switch_step={sampler_switch.switch_step(cfg)} under a budget: the "
+          f"step table has no entry for the stage ({step_table.key(config, name)}), and a "
+          "stage that times its own steps would time only those before its switch; "
+          "`python -m experiments.step_times` measures both")
     if entry is None:  # this machine measures it (stages/loop.py); so do the stages after it
       measuring = True
       plan[name]["max_seconds"] = max(until - spent, 1e-3)
@@ -245,12 +253,36 @@ def _budget_steps(config, plan, final):
     # it gets no floor and the method ends within its budget (equal time).
     floor = min(cfg.min_steps, cfg.steps) if name != names[-1] else 0
     cap = min(cfg.steps, cfg.stop_at_step or cfg.steps)
+    left = max(until - spent - entry["setup_s"], 0.0)
     # the step that crosses the share is taken, as a clock-stopped loop would
-    count = math.ceil(max(until - spent - entry["setup_s"], 0.0) / entry["step_s"] - 1e-9)
+    count = math.ceil(left / entry["step_s"] - 1e-9)
+    after_s = _after_switch_step_s(config, name, table, count)
+    switch = sampler_switch.switch_step(cfg) if after_s else 0
+    if after_s:  # the steps past the switch are priced at their own rate
+      count = switch + math.ceil((left - switch * entry["step_s"]) / after_s - 1e-9)
     count = max(1, min(max(count, floor), cap))
     plan[name].update(budget_steps=count, ref_step_s=float(entry["step_s"]),
                       ref_setup_s=float(entry["setup_s"]), ref_offset_s=spent)
-    spent += entry["setup_s"] + count * entry["step_s"]
+    if after_s and count > switch:  # only then: a run short of it has the plan it had
+      plan[name].update(ref_switch_step=switch, ref_after_step_s=float(after_s))
+    spent += reference_seconds(plan[name], count)
+
+
+def _after_switch_step_s(config, name, table, count) -> float:
+  """The table's step time of stage `name` past its sampler switch, where
+  `count` steps at its first rate would pass the switch; 0.0 where they
+  would not. ConfigError where the table lacks the key: the count could not
+  be fixed before training."""
+  switch = sampler_switch.switch_step(config[name])
+  if not switch or count <= switch:
+    return 0.0
+  key = step_table.after_switch_key(config, name)
+  if key not in table:
+    raise registry.ConfigError(
+        f"{name}.sampler.switch_step={switch}: the stage passes its switch under this budget, "
+        f"and the step table has no entry for its steps after it ({key}); "
+        "`python -m experiments.step_times` measures it")
+  return float(table[key]["step_s"])
 
 
 def summary(config) -> dict:
@@ -268,5 +300,10 @@ def summary(config) -> dict:
                          {"measured": True, "seconds": c[n].max_seconds,
                           "key": step_table.key(c, n)})
                      for n in needed(c, c.final_stage)}
+    for n, stage in out["stages"].items():
+      if c[n].get("ref_switch_step", 0):  # the steps past its sampler switch
+        stage["after_switch"] = {"from_step": int(c[n].ref_switch_step),
+                                 "step_s": c[n].ref_after_step_s,
+                                 "key": step_table.after_switch_key(c, n)}
     out["measured"] = any(s.get("measured") for s in out["stages"].values())
   return out

@@ -13,6 +13,8 @@ the fields that change what a step computes but not how long it takes
 stays in). A new scene of a known kind and size (chair beside lego) finds
 lego's entry; a change of batch, samples, width or sampler makes a new key,
 which `python -m experiments.step_times` measures (until then, runs of it measure themselves).
+A stage's steps after its sampler switch are priced by a key of their own
+(`after_switch_key`).
 The ray field's set-up renders Lo-NeRF's targets for every training pixel up
 to `target_rays`, so its key also holds the number of training views.
 """
@@ -21,7 +23,7 @@ import hashlib
 import json
 import os
 
-from halo_jax import config_files
+from halo_jax import config_files, sampler_switch
 
 TABLE = os.path.join(os.path.dirname(__file__), "step_table.json")
 
@@ -38,6 +40,9 @@ TIMELESS = frozenset((
     "fourier.st_std", "fourier.theta_std", "fourier.uv_std", "joint.std", "joint.uv_std",
     "sampler.window", "sampler.window_start", "sampler.window_steps", "sampler.num_full",
     "sampler.coarse_weight", "sampler.dense_eval_after", "sampler.dense_eval_samples",
+    # the steps after a sampler switch have a key of their own (after_switch_key)
+    "sampler.switch_step", "sampler.switch_samples", "sampler.switch_kind",
+    "ref_switch_step", "ref_after_step_s",
     "collapse.margin_db", "collapse.after_steps",
     "collapse.window", "radius", "tau", "schedule_span", "acc_weight", "random_acc"))
 # Weights: only whether the term is on sets the time.
@@ -75,6 +80,12 @@ def key(config, name) -> str:
                                      default=str).encode()).hexdigest()[:12]
   rays = config.data.get("rays", "")
   return f"{config.method}|{config.data.kind}{'+' + rays if rays else ''}|{name}|{digest}"
+
+
+def after_switch_key(config, name) -> str:
+  """The table key of stage `name`'s steps after its sampler switch
+  (sampler_switch.py): the key of the stage sampling so from its first step."""
+  return key(sampler_switch.switched(config, name), name)
 
 
 @functools.lru_cache(maxsize=8)

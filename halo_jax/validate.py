@@ -75,6 +75,32 @@ def _sampler(cfg, name):
     yield f"{name}.sampler.dense_eval_after={after!r}: must be an integer >= 0 (0: never)"
   elif after:
     yield from _positive_int(s.dense_eval_samples, f"{name}.sampler.dense_eval_samples")
+  yield from _switch(cfg, name)
+
+
+def _switch(cfg, name):
+  """The sampler switch's fields (sampler_switch.py): a radiance stage's,
+  to a sampler of the same guide."""
+  s = cfg.sampler
+  step = s.get("switch_step", 0)
+  if not step:
+    return
+  if not (isinstance(step, int) and not isinstance(step, bool) and step > 0):
+    yield f"{name}.sampler.switch_step={step!r}: must be an integer >= 0 (0: never)"
+    return
+  if cfg.get("kind") != "radiance":
+    yield (f"{name}.sampler.switch_step={step}: only a radiance-field stage switches its "
+           f"sampler ({name}.kind={cfg.get('kind')!r})")
+    return
+  yield from _positive_int(s.switch_samples, f"{name}.sampler.switch_samples")
+  if s.switch_kind:
+    mine = samplers.SAMPLERS.get(s.kind, f"{name}.sampler.kind")
+    theirs = samplers.SAMPLERS.get(s.switch_kind, f"{name}.sampler.switch_kind")
+    same = ("guided", "trains_guide", "needs", "geometries", "dynamic")
+    if any(getattr(mine, f) != getattr(theirs, f) for f in same):
+      yield (f"{name}.sampler.switch_kind={s.switch_kind!r}: switches from {s.kind!r} to a "
+             "sampler that reads another guide or takes other rays; it must place samples "
+             f"from what {s.kind!r} reads")
 
 
 def _model(cfg, name):

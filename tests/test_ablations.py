@@ -286,7 +286,7 @@ def test_identity_checks_only_the_variants_asked_for():
 
 
 def test_the_dense_eval_switch_lies_between_his_steps_at_240_and_960_s():
-  """dense_eval's variant is identical at 60 and 240 s only if no scene's Hi
+  """dense_eval's and the sampler switch's variants are identical at 60 and 240 s only if no scene's Hi
   reaches the switch there; it is judged at 960 s only if every one does."""
   from experiments.bench import budget_studies
   study = budget_studies.STUDIES["hi_window_960"]
@@ -294,6 +294,7 @@ def test_the_dense_eval_switch_lies_between_his_steps_at_240_and_960_s():
     at_240 = budget_studies.hi_steps(scene, 240.0)
     at_960 = budget_studies.hi_steps(scene, 960.0)
     assert at_240 < budget_studies.DENSE_EVAL_AFTER <= at_960, (scene.name, at_240, at_960)
+    assert at_240 < budget_studies.SAMPLES_SWITCH <= at_960, (scene.name, at_240, at_960)
   # and the baseline's twin (nerf_tuned trains more steps in the same time)
   for scene in study.scenes:
     steps = [budget_studies.hi_steps(scene, b, "nerf_tuned")

@@ -18,7 +18,7 @@ LAYERS = (
     {"registry", "types", "geometry", "rays", "trig", "encoding", "camera", "rng", "samplers", "render", "raycast",
      "losses", "metrics", "lightfield", "frequency", "frequency.spectrum", "plots", "provenance", "visibility",
      "tensorboard", "video", "image_files", "config_files", "tables", "step_table", "progress",
-     "atomic", "frozen"},
+     "atomic", "frozen", "sampler_switch"},
     {"models", "ray_fields", "datasets", "checkpoint", "parallel", "evaluate", "defaults",
      "light_field_defaults", "camera_paths", "frequency.view_pairs",
      "workdir_lock"},

@@ -52,3 +52,14 @@ def test_replaced_makes_a_new_value_and_leaves_the_old_one():
   assert (c.lo.max_seconds, c.hi.steps) == (0.0, 4)
   with pytest.raises(KeyError, match="lo.no_such_field"):
     frozen.replaced(c, {"lo.no_such_field": 1})
+
+
+def test_editing_a_thawed_section_leaves_the_frozen_config_and_its_later_thaws():
+  """ml_collections' ConfigDict(frozen section) shares nested sections with
+  the frozen value's cached copy; thaw must not pass that on."""
+  f = frozen.freeze(ml_collections.ConfigDict({"hi": {"sampler": {"num_samples": 8}}}))
+  section = frozen.thaw(f.hi)
+  section.sampler.num_samples = 16
+  assert frozen.replaced(f.hi, {"sampler.num_samples": 32}).sampler.num_samples == 32
+  assert frozen.thaw(f).hi.sampler.num_samples == 8
+  assert f.hi.sampler.num_samples == 8

@@ -40,6 +40,14 @@ _BASELINE_DENSE_EVAL = (("hi.sampler.dense_eval_after", DENSE_EVAL_AFTER),
                         ("hi.sampler.dense_eval_samples", 128))
 
 
+# Hi's samples in the window doubled once it has trained this long
+# (sampler.switch_step): at the same step as DENSE_EVAL_AFTER, and for the same
+# reason, identical at 60 and 240 s; its steps past the switch cost their own
+# step-table entry, so at 960 s it trains fewer steps than `halo`.
+SAMPLES_SWITCH = DENSE_EVAL_AFTER
+_SAMPLES_64 = (("hi.sampler.switch_step", SAMPLES_SWITCH), ("hi.sampler.switch_samples", 64))
+
+
 def _hi_window_study(budget_s: float) -> Study:
   """Hi-NeRF's samples in and beside the ray field's window, at one budget of
   the budget study (docs/results/budget_study.md)."""
@@ -51,7 +59,8 @@ def _hi_window_study(budget_s: float) -> Study:
                 "cost; with a window that narrows from the whole ray; or with a fine pass "
                 "of 32 more samples drawn from the window's weights, at equal reference "
                 "time; or trained as it is and, once it has trained long, scored with its "
-                "held-out views rendered densely (and the baseline given the same); on "
+                "held-out views rendered densely (and the baseline given the same); or with "
+                "twice its samples in the window once it has trained long; on "
                 "every scene whose Hi the window samples. `narrowing` and "
                 "`fine_32+32` keep the scene kind's full-range samples, so on fern_4view "
                 "they compare with `full_8` (its default)."),
@@ -73,6 +82,9 @@ def _hi_window_study(budget_s: float) -> Study:
                   f"trained as `halo`; once Hi has trained {DENSE_EVAL_AFTER} steps (past its "
                   "steps at 240 s on every scene here, short of them at 960 s), its held-out "
                   "views are rendered with 64 samples stratified over the whole ray"),
+          Variant(f"samples_64_after_{SAMPLES_SWITCH}", "halo", _window() + _SAMPLES_64,
+                  f"32 samples in r = 0.3 for Hi's first {SAMPLES_SWITCH} steps, then 64 "
+                  "(trained and scored so; fewer steps in the same time past the switch)"),
           BASELINE,
           Variant(f"nerf_tuned_dense_eval_{DENSE_EVAL_AFTER}", "nerf_tuned", _BASELINE_DENSE_EVAL,
                   f"the baseline, trained as it is; once it has trained {DENSE_EVAL_AFTER} "

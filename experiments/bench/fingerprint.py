@@ -25,7 +25,7 @@ import dataclasses
 import json
 import os
 
-from halo_jax import frozen, protocol, step_table
+from halo_jax import frozen, protocol, sampler_switch, step_table
 from experiments.bench import benchmark, suites
 from halo_jax.configure import finish, set_field
 from halo_jax.stages import collapse, metrics_log
@@ -33,7 +33,7 @@ from halo_jax.stages.order import needed
 
 # Stage fields at which a step schedule switches (a step count each; 0: none).
 SWITCHES = ("precrop_steps", "fg_steps", "collapse.after_steps", "empty.start_step",
-            "joint.alpha_steps", "sampler.dense_eval_after")
+            "joint.alpha_steps", "sampler.dense_eval_after", "sampler.switch_step")
 
 # The sizes a fingerprint run shrinks, where the config has the field:
 # (dotted field under each stage, value); then fields of the whole config.
@@ -101,8 +101,10 @@ def fingerprint_table(config, counts: dict) -> dict:
   entries = {}
   for n in names:
     share_s = config.budget_s * shares[n] / total
-    entries[step_table.key(keyed, n)] = {"step_s": share_s / counts[n], "setup_s": 0.0,
-                                          "source": "fingerprint"}
+    entry = {"step_s": share_s / counts[n], "setup_s": 0.0, "source": "fingerprint"}
+    entries[step_table.key(keyed, n)] = entry
+    if sampler_switch.switch_step(keyed[n]):  # its steps past a sampler switch, at one rate
+      entries[step_table.after_switch_key(keyed, n)] = entry
   return {"machine": {"source": "fingerprint run (experiments/bench/fingerprint.py)"},
           "entries": entries}
 

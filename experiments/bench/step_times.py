@@ -35,7 +35,8 @@ import time
 
 from absl import flags, logging
 
-from halo_jax import atomic, frozen, pipeline, progress, protocol, step_table
+from halo_jax import atomic, frozen, pipeline, progress, protocol, sampler_switch
+from halo_jax import step_table
 from halo_jax.configure import finish
 from experiments.bench import git_state
 from experiments.bench import benchmark, selection, studies, suites, tool
@@ -101,6 +102,17 @@ def keys_of(config) -> dict:
   return {n: step_table.key(config, n) for n in pipeline.needed(config, config.final_stage)}
 
 
+def switched_configs(config) -> dict:
+  """{after-switch table key: (stage, the config whose stage samples so from
+  its first step)} of the config's stages with a sampler switch
+  (halo_jax/sampler_switch.py): the steps past a switch have their own key."""
+  out = {}
+  for n in pipeline.needed(config, config.final_stage):
+    if sampler_switch.switch_step(config[n]):
+      out[step_table.after_switch_key(config, n)] = (n, finish(sampler_switch.switched(config, n)))
+  return out
+
+
 def measuring_config(config, caps: dict):
   """The method's config step-capped at `caps` ({stage: steps}), its scoring
   cut to what a finished stage needs (its keys are those of `config`)."""
@@ -112,9 +124,11 @@ def measuring_config(config, caps: dict):
   return finish(c)
 
 
-def measure(suite, scene, method, scratch) -> dict:
-  """{key: {'step_s', 'setup_s', 'steps', 'wall_s'}} of one (scene, method)."""
-  c = benchmark.configure(suite, scene, method, 0, "budget", scratch)
+def measure(suite, scene, method, scratch, config=None) -> dict:
+  """{key: {'step_s', 'setup_s', 'steps', 'wall_s'}} of one (scene, method),
+  as the suite configures it or as `config` (its composed config) says."""
+  c = config if config is not None else benchmark.configure(suite, scene, method, 0, "budget",
+                                                            scratch)
   keys = keys_of(c)
   caps = {n: min(FLAGS.ray_steps if c[n].kind == "ray_field" else FLAGS.lo_steps, c[n].steps)
           for n in keys}
@@ -214,14 +228,21 @@ def main(argv):
       print(f"no data   {tag}", flush=True)
       continue
     c = benchmark.configure(suite, scene, method, 0, "budget", FLAGS.scratch)
-    missing = [k for k in keys_of(c).values() if FLAGS.remeasure or k not in entries]
+    switched = switched_configs(c)
+    missing = [k for k in list(keys_of(c).values()) + list(switched)
+               if FLAGS.remeasure or k not in entries]
     if FLAGS.dry_run or not missing:
       print(f"{'missing' if missing else 'in table'} {tag}: {', '.join(missing)}", flush=True)
       continue
     if ratio is None:
       ratio = 1.0 if FLAGS.remeasure else anchor_ratio(entries, todo)
     t0 = time.time()
-    measured = measure(suite, scene, method, FLAGS.scratch)
+    measured = {}
+    if any(k in missing for k in keys_of(c).values()):
+      measured.update(measure(suite, scene, method, FLAGS.scratch))
+    for k, (stage, sc) in switched.items():  # the steps after a sampler switch
+      if k in missing:
+        measured[k] = measure(suite, scene, method, FLAGS.scratch, sc)[step_table.key(sc, stage)]
     for v in measured.values():
       v.update(step_s=round(v["step_s"] * ratio, 6), setup_s=round(v["setup_s"] * ratio, 3),
                source="measured", ratio=round(ratio, 4))

@@ -1,6 +1,6 @@
 """How long a stage's loop runs, in one place: its last step, its reference
-clock, and the count a stage with no table entry fixes after measuring its
-own steps.
+clock (`reference_seconds`), and the count a stage with no table entry
+fixes after measuring its own steps.
 
 Under every protocol (halo_jax/protocol.py) a stage runs to a step count
 known before its loop starts, except a budgeted stage whose sizes the step
@@ -26,6 +26,18 @@ def measured_share(config, name, until, spent):
   if config[name].max_seconds and name in until:
     return frozen.replaced(config, {f"{name}.max_seconds": max(until[name] - spent, 1e-3)})
   return config
+
+
+def reference_seconds(stage, steps, offset=0.0) -> float:
+  """`offset` plus the reference seconds of a stage's set-up and its first
+  `steps` steps, from its plan's fields (or a stage config holding them):
+  the table's step time up to its sampler switch (halo_jax/sampler_switch.py)
+  and its after-switch step time past it."""
+  switch = stage.get("ref_switch_step", 0)
+  if not switch or steps <= switch:
+    return offset + stage["ref_setup_s"] + steps * stage["ref_step_s"]
+  return (offset + stage["ref_setup_s"] + switch * stage["ref_step_s"]
+          + (steps - switch) * stage["ref_after_step_s"])
 
 
 def minus_seconds(cfg, seconds):

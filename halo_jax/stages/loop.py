@@ -56,6 +56,7 @@ class _Run:
     self.last_eval_step = None
     self.board = board  # TensorBoard writer or None
     self.lr = schedule(cfg)
+    self.compile_s = 0.0  # compiling its steps, off the clock
 
   def clock(self, step) -> float:
     """The method's reference seconds after `step` (halo_jax/protocol.py):
@@ -64,7 +65,7 @@ class _Run:
     front's snapshots and the curve's evaluations are placed on it."""
     cfg = self.cfg
     if cfg.get("ref_step_s", 0.0):
-      return cfg.ref_offset_s + cfg.ref_setup_s + step * cfg.ref_step_s
+      return budget.reference_seconds(cfg, step, cfg.ref_offset_s)
     if self.measured_step_s:
       return self.wall_offset + self.start_wall + (step - self.start_step) * self.measured_step_s
     return self.wall_offset + self.wall_s
@@ -215,7 +216,8 @@ class _Run:
 def train(name: str, cfg, workdir: str, params, loss_fn: Callable, data, seed: int,
           eval_fn: Optional[Callable] = None, log: Optional[MetricsLog] = None,
           wall_offset: float = 0.0, mesh=None, snapshot_s=(), pacer=None,
-          baseline: Optional[collapse.Baseline] = None, select_fn: Optional[Callable] = None):
+          baseline: Optional[collapse.Baseline] = None, select_fn: Optional[Callable] = None,
+          switch: Optional[tuple] = None):
   """Trains `params` on `loss_fn` for cfg.steps (or cfg.max_seconds, but never
   fewer than cfg.min_steps) and returns them.
 
@@ -232,6 +234,10 @@ def train(name: str, cfg, workdir: str, params, loss_fn: Callable, data, seed: i
   grants every step (None: free). baseline: the collapse check's (None: not
   judged). select_fn: (params, step) -> PSNR on validation views at every
   held-out evaluation; the best parameters are returned (selection.py).
+  switch: (step, loss_fn) or None: the steps after the first `step` take
+  this loss_fn (a sampler switch, halo_jax/sampler_switch.py), its step
+  compiled when the loop reaches it (or at the start of a resumed run past
+  it), off the clock like the first.
 
   Returns:
     (params, step, info), info = {'wall_s', 'skipped', 'compile_s', 'past_time_cap',
@@ -253,17 +259,30 @@ def train(name: str, cfg, workdir: str, params, loss_fn: Callable, data, seed: i
   try:
     # Compiled before the clock starts: a time budget buys training steps, and
     # a method of three stages would otherwise pay three compilations.
-    t0 = time.perf_counter()
-    step_fn = make_step(loss_fn, tx, cfg.microbatches).lower(run.state, data, base_key).compile()
-    compile_s = time.perf_counter() - t0
+    step_fn, later = _steps(run, tx, data, base_key, loss_fn, switch, start)
     with preemption.training():
-      step = _loop(run, step_fn, data, base_key, bar, start, cfg)
+      step = _loop(run, step_fn, data, base_key, bar, start, cfg, later)
   finally:
     bar.close()  # before any error line, so it starts a line of its own
     if board is not None:
       board.close()
-  info = _info(run, start, step, compile_s, baseline)
+  info = _info(run, start, step, run.compile_s, baseline)
   return _chosen(run, info), step, info
+
+
+def _steps(run, tx, data, base_key, loss_fn, switch, start):
+  """(the compiled step the loop starts with, (switch step, () -> the
+  compiled step after it) or None); compiling counts in run.compile_s."""
+  def compiled(fn):
+    t0 = time.perf_counter()
+    out = make_step(fn, tx, run.cfg.microbatches).lower(run.state, data, base_key).compile()
+    run.compile_s += time.perf_counter() - t0
+    return out
+
+  switch_step, after_fn = switch if switch else (0, None)
+  if switch_step and start >= switch_step:  # resumed past the switch
+    loss_fn, switch_step = after_fn, 0
+  return compiled(loss_fn), ((switch_step, lambda: compiled(after_fn)) if switch_step else None)
 
 
 def _chosen(run, info):
@@ -296,11 +315,14 @@ def _info(run, start, step, compile_s, baseline) -> dict:
               **cfg.collapse)}
 
 
-def _loop(run, step_fn, data, base_key, bar, start, cfg):
+def _loop(run, step_fn, data, base_key, bar, start, cfg, later=None):
   """Steps until the stage's last step (run.last, which a self-measuring
-  stage fixes on the way); returns the last step taken."""
+  stage fixes on the way); returns the last step taken. later: (switch step,
+  () -> the compiled step after it) or None."""
   step, in_flight = start, None  # in_flight: the loss of the step before the current one
   while step < run.last:
+    if later is not None and step == later[0]:
+      step_fn, later = later[1](), None
     step += 1
     if run.pacer is not None:
       run.pacer.wait_turn(run)

@@ -16,7 +16,7 @@ import jax
 import ml_collections
 
 from halo_jax import evaluate, geometry, lightfield, models, parallel, ray_fields, raycast
-from halo_jax import registry, samplers
+from halo_jax import registry, sampler_switch, samplers
 from halo_jax.rays import Batch
 from halo_jax.stages import base, batches, budget, collapse, loop, microbatch, terms
 from halo_jax.stages.state import StageState, stage_dir
@@ -63,6 +63,9 @@ def check(config, name, dspec):
                  f"{name}.sampler.kind={cfg.sampler.kind!r} needs a ray field, which has no "
                  f"time input; {where} needs 'stratified' or 'hierarchical'")
   _check_guided(cfg.sampler, spec, name)
+  if sampler_switch.switch_step(cfg):  # and as it samples after its switch
+    after = sampler_switch.stage_after(cfg)
+    _check_guided(after.sampler, _sampler(after), name)
   terms.check_geometries(cfg, name, dspec, where)
   registry.check(name != "lo" or not (cfg.init_from_lo or cfg.encoding.with_lo),
                  "lo.init_from_lo and lo.encoding.with_lo start a stage from Lo-NeRF; "
@@ -236,6 +239,12 @@ def _eval_closures(ctx, s: StepSettings, guide_params):
       guide_model=s.guide_model, geometry=s.geometry, radius=s.radius,
       block_rays=config.eval.block_rays)
   trains_guide = s.sampler.trains_guide
+  render_switched = None
+  if sampler_switch.switch_step(cfg):  # a field past its switch is scored as it trains
+    render_switched = raycast.make_eval_fn(
+        s.model, sampler_switch.stage_after(cfg).sampler, near=s.near, far=s.far,
+        white_background=s.white, guide_model=s.guide_model, geometry=s.geometry,
+        radius=s.radius, block_rays=config.eval.block_rays)
   after = cfg.sampler.get("dense_eval_after", 0)
   render_dense = None
   if after:
@@ -252,10 +261,12 @@ def _eval_closures(ctx, s: StepSettings, guide_params):
       # a field trained this long has moved off the window its guide places:
       # its held-out views are rendered densely over the whole ray
       return functools.partial(render_dense, p["nerf"], None, **kw)
+    render = render_eval
+    if render_switched is not None and sampler_switch.after(cfg, min(step, budget.last_step(cfg))):
+      render = render_switched
     if trains_guide:  # the window the joint sampler trains with at this step
-      return functools.partial(render_eval, p["nerf"], p["ray"], window=joint_window(cfg, step),
-                               **kw)
-    return functools.partial(render_eval, p["nerf"], guide_params,
+      return functools.partial(render, p["nerf"], p["ray"], window=joint_window(cfg, step), **kw)
+    return functools.partial(render, p["nerf"], guide_params,
                              window=samplers.window_at(cfg.sampler, step), **kw)
 
   def eval_fn(params, step=None):
@@ -290,11 +301,16 @@ def train(ctx: base.StageContext):
   settings = dataclasses.replace(settings, cfg=cfg)
   make_eval, eval_fn = _eval_closures(ctx, settings, guide_params)
   step_loss = functools.partial(loss_fn, s=settings)
+  switch = None
+  if sampler_switch.switch_step(cfg):  # the steps past it sample as sampler_switch.py says
+    after_cfg = sampler_switch.stage_after(cfg)
+    switch = (sampler_switch.switch_step(cfg), functools.partial(
+        loss_fn, s=dataclasses.replace(settings, cfg=after_cfg, sampler=_sampler(after_cfg))))
   params, step, info = loop.train(name, cfg, ctx.workdir, params, step_loss, data, config.seed,
                                   eval_fn, ctx.log, ctx.wall_offset + bank_s, ctx.mesh,
                                   snapshot_s=ctx.front_s, pacer=ctx.pacer,
                                   baseline=collapse.pixels_baseline(ds.train.images),
-                                  select_fn=base.select_fn(ctx, make_eval))
+                                  select_fn=base.select_fn(ctx, make_eval), switch=switch)
   info["wall_s"] += bank_s
   info["setup_s"] = bank_s
   eval_dir = os.path.join(stage_dir(ctx.workdir, name), "eval")
