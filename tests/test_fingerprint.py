@@ -124,3 +124,20 @@ def test_a_fingerprint_run_trains_its_counts_on_the_reference_clock(tmp_path):
   assert len(r["psnr"]) == 1 and r["psnr"][0] > 8.0
   assert [s for s, _ in r["losses"]["hi"]] == list(range(c.hi.log_every, counts["hi"] + 1,
                                                          c.hi.log_every))
+
+
+def test_a_run_past_a_sampler_switch_is_fingerprinted_past_it(tmp_path):
+  """A study variant whose Hi switches its sampler within the suite's run:
+  the fingerprint run crosses the switch too, and its table prices the steps
+  after it (at the same rate, so the count is exact)."""
+  scene = SCENES["lego_8view"]
+  switch = (("hi.sampler.switch_step", 100), ("hi.sampler.switch_samples", 64))
+  c, counts = fingerprint.configure(scene, "halo", str(tmp_path), overrides=switch)
+  full = protocol.effective(fingerprint.suite_config(scene, "halo", str(tmp_path),
+                                                     overrides=switch))
+  assert full.hi.ref_switch_step == 100        # the suite's run passes it
+  crossed = [v for v in _switches(full.hi) if v <= full.hi.budget_steps]
+  assert counts["hi"] == max(crossed) + (collapse.MIN_RECORDS + 1) * full.hi.log_every
+  assert step_table.after_switch_key(c, "hi") in step_table.load(c.step_table)
+  trained = protocol.effective(c)
+  assert trained.hi.budget_steps == counts["hi"] and trained.hi.ref_switch_step == 100

@@ -94,8 +94,12 @@ def fingerprint_table(config, counts: dict) -> dict:
   gives each stage exactly counts[stage] steps (no set-up time)."""
   names = needed(config, config.final_stage)
   # keyed as the stages train (a budget's copy of Lo widens Hi's input); resolved
-  # against the shipped table, since the one written here does not exist yet
-  keyed = protocol.effective(finish(frozen.replaced(config, {"step_table": ""})))
+  # against the shipped table, since the one written here does not exist yet,
+  # with no sampler switch (not in a key; the shipped table cannot price one
+  # at the shrunk sizes)
+  switches = [n for n in names if sampler_switch.switch_step(config[n])]
+  keyed = protocol.effective(finish(frozen.replaced(
+      config, {"step_table": "", **{f"{n}.sampler.switch_step": 0 for n in switches}})))
   shares = {n: config.budget_shares[n] for n in names}
   total = sum(shares.values())
   entries = {}
@@ -103,7 +107,7 @@ def fingerprint_table(config, counts: dict) -> dict:
     share_s = config.budget_s * shares[n] / total
     entry = {"step_s": share_s / counts[n], "setup_s": 0.0, "source": "fingerprint"}
     entries[step_table.key(keyed, n)] = entry
-    if sampler_switch.switch_step(keyed[n]):  # its steps past a sampler switch, at one rate
+    if n in switches:  # its steps past its sampler switch, at the same rate
       entries[step_table.after_switch_key(keyed, n)] = entry
   return {"machine": {"source": "fingerprint run (experiments/bench/fingerprint.py)"},
           "entries": entries}
