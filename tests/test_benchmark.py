@@ -91,6 +91,11 @@ def test_smoke_suite_writes_and_skips(tmp_path):
   state = benchmark._state  # pylint: disable=protected-access
   assert state(path, scene, suites.SMOKE) == "done"
   assert state(path, scene, suites.SMOKE, add_fronts=True) == "done"
+  now = benchmark.configure(suites.SMOKE, scene, "nerf_tuned", 0, "budget", scratch)
+  assert state(path, scene, suites.SMOKE, config=now) == "done"
+  # a default changed since the run, past where its fingerprint looks: rerun
+  changed = frozen.replaced(now, {"hi.sampler.switch_step": 5000})
+  assert state(path, scene, suites.SMOKE, config=changed) == "stale config"
   assert os.path.getsize(path) < 20000
   # the front: the state at each of the suite's times the run reached, then the final
   front = saved["front"]

@@ -480,8 +480,11 @@ def main(argv):
     failed, runnable = [], []
     for scene, variant, seed in todo:
       path = result_path(FLAGS.results, FLAGS.study, scene, variant, seed)
-      state = benchmark._state(path, scene, terms(study))  # pylint: disable=protected-access
-      if FLAGS.dry_run or state != "to run":
+      now = (configure(study, scene, variant, seed, FLAGS.scratch, FLAGS.results)
+             if benchmark.has_data(scene) else None)
+      state = benchmark._state(  # pylint: disable=protected-access
+          path, scene, terms(study), config=now)
+      if FLAGS.dry_run or state not in ("to run", "stale config"):
         print(f"{state:8} {scene.name}/{variant.name}/seed{seed}", flush=True)
       else:
         runnable.append((scene, variant, seed))

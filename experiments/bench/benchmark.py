@@ -13,7 +13,8 @@ Each finished run writes one small JSON file,
 (per-view PSNR / SSIM / LPIPS, the held-out curve against seconds, steps,
 provenance; on scenes with a validation split, each stage's PSNR on all of
 its views, scored after training), which is committed: a run whose file
-exists is skipped, so a
+exists is skipped (unless its resolved config is not the one the suite
+composes now: 'stale config', rerun), so a
 suite resumes across machines from the repository. A run killed part way
 resumes from its checkpoints in --scratch on the same machine. Runs go seed
 by seed (every scene and method at seed 0 first), so a partial suite covers
@@ -199,17 +200,40 @@ def judge_heldout(suite_name, scene, method, seed, mode, results, scratch) -> st
                verdicts, "judged")
 
 
-def _state(path, scene, suite, add_fronts=False):
+def _state(path, scene, suite, add_fronts=False, config=None):
+  """What a run's file says of it: 'done', 'to run', 'no data', 'no front'
+  (add_fronts), or 'stale config' where `config` (the run composed now) is
+  given and the file's run was trained with another resolved config: a
+  default changed where the code fingerprint cannot see it (past every step
+  switch its short run crosses), so its figures are not this config's."""
   if os.path.exists(path):
-    if add_fronts and suite.front_s:
-      with open(path) as f:
-        if not json.load(f).get("front"):
-          return "no front" if _has_data(scene) else "no data"
+    with open(path) as f:
+      record = json.load(f)
+    if add_fronts and suite.front_s and not record.get("front"):
+      return "no front" if has_data(scene) else "no data"
+    if config is not None and not _same_config(config, record):
+      return "stale config"
     return "done"
-  return "to run" if _has_data(scene) else "no data"
+  return "to run" if has_data(scene) else "no data"
 
 
-def _has_data(scene) -> bool:
+def _same_config(config, record) -> bool:
+  """Whether a record's run is `config`'s: its resolved config, with the
+  render fields a rescored record was scored with (rescore.py) laid over."""
+  from experiments.bench import adopt  # pylint: disable=import-outside-toplevel  (it reads runs)
+  theirs = json.loads(json.dumps(record["resolved_config"]))
+  for dotted, value in (record.get("rescored_from") or {}).get("fields", ()):
+    *path, field = dotted.split(".")
+    node = theirs
+    for part in path:
+      node = node.setdefault(part, {})
+    node[field] = value
+  return adopt.same_resolved(json.loads(config.to_json_best_effort()), theirs)
+
+
+
+def has_data(scene) -> bool:
+  """Whether the scene's data folder is here (a built-in scene always is)."""
   return not scene.needs or os.path.isdir(os.path.join(data_root(), scene.needs))
 
 
@@ -237,8 +261,10 @@ def main(argv):
   failed, runnable = [], []
   for scene, method, seed in todo:
     path = result_path(FLAGS.results, FLAGS.suite, FLAGS.mode, scene, method, seed)
-    state = _state(path, scene, suite, FLAGS.add_fronts)
-    if FLAGS.dry_run or state not in ("to run", "no front"):
+    now = (configure(suite, scene, method, seed, FLAGS.mode, FLAGS.scratch)
+           if has_data(scene) else None)
+    state = _state(path, scene, suite, FLAGS.add_fronts, now)
+    if FLAGS.dry_run or state not in ("to run", "no front", "stale config"):
       print(f"{state:8} {scene.name}/{method}/seed{seed}", flush=True)
     else:
       runnable.append((scene, method, seed))
