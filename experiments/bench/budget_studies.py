@@ -85,6 +85,10 @@ def _hi_window_study(budget_s: float) -> Study:
           Variant(f"samples_64_after_{SAMPLES_SWITCH}", "halo", _window() + _SAMPLES_64,
                   f"32 samples in r = 0.3 for Hi's first {SAMPLES_SWITCH} steps, then 64 "
                   "(trained and scored so; fewer steps in the same time past the switch)"),
+          Variant(f"full_8+samples_64_after_{SAMPLES_SWITCH}", "halo",
+                  _window(full=8) + _SAMPLES_64,
+                  f"`full_8` (fern_4view's default) for Hi's first {SAMPLES_SWITCH} steps, then "
+                  "8 of 64 over the whole ray and the rest in r = 0.3"),
           BASELINE,
           Variant(f"nerf_tuned_dense_eval_{DENSE_EVAL_AFTER}", "nerf_tuned", _BASELINE_DENSE_EVAL,
                   f"the baseline, trained as it is; once it has trained {DENSE_EVAL_AFTER} "
