@@ -27,6 +27,12 @@ def _records(root, scene, variant) -> list:
   return out
 
 
+def _seeds(records) -> list:
+  """The records' seeds, sorted ([] where one lacks its seed)."""
+  seeds = [r.get("seed") for r in records]
+  return [] if None in seeds else sorted(seeds)
+
+
 def swapped(runs, results, suite="budget_960", candidate=CANDIDATE):
   """({scene: {method: [record]}} of `runs` with halo's records replaced by
   the candidate's where the study's halo on every seed is `suite`'s own run
@@ -35,10 +41,10 @@ def swapped(runs, results, suite="budget_960", candidate=CANDIDATE):
   out, done = dict(runs), []
   for scene, by in runs.items():
     mine, ref = _records(root, scene, candidate[1]), _records(root, scene, METHOD)
-    seeds = sorted(r["seed"] for r in by.get(METHOD, []))
-    if not seeds or sorted(r["seed"] for r in mine) != seeds:
+    seeds = _seeds(by.get(METHOD, []))
+    if not seeds or _seeds(mine) != seeds:
       continue
-    if sorted(r["seed"] for r in ref) != seeds or not all(
+    if _seeds(ref) != seeds or not all(
         (r.get("adopted_from") or {}).get("path", "").startswith(f"{suite}/") for r in ref):
       continue
     out[scene] = dict(by, **{METHOD: mine})
