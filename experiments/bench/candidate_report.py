@@ -1,6 +1,7 @@
 """The budget study page's candidate section: the largest budget's goals read
 with a study variant in place of halo, on the scenes where the study's halo
-is the suite's own run (adopted from it: the same resolved config), so the
+is the suite's own run (adopted from it, with the suite's record's figures
+today: the same resolved config), so the
 variant differs from the suite's halo by its overrides alone. A candidate
 default is shown beside the goals before it is adopted; it is not the
 default, and the section says so.
@@ -33,6 +34,13 @@ def _seeds(records) -> list:
   return [] if None in seeds else sorted(seeds)
 
 
+def _adopted_path(record) -> str:
+  """The suite record a study record was adopted from ('' for none); an
+  older record names it by a bare path."""
+  source = record.get("adopted_from") or ""
+  return source.get("path", "") if isinstance(source, dict) else source
+
+
 def swapped(runs, results, suite="budget_960", candidate=CANDIDATE):
   """({scene: {method: [record]}} of `runs` with halo's records replaced by
   the candidate's where the study's halo on every seed is `suite`'s own run
@@ -44,8 +52,10 @@ def swapped(runs, results, suite="budget_960", candidate=CANDIDATE):
     seeds = _seeds(by.get(METHOD, []))
     if not seeds or _seeds(mine) != seeds:
       continue
-    if _seeds(ref) != seeds or not all(
-        (r.get("adopted_from") or {}).get("path", "").startswith(f"{suite}/") for r in ref):
+    suite_psnr = {r["seed"]: r["psnr"] for r in by[METHOD]}
+    # adopted from the suite's run, and that run is still the suite's record
+    if _seeds(ref) != seeds or not all(_adopted_path(r).startswith(f"{suite}/")
+                                       and r["psnr"] == suite_psnr[r["seed"]] for r in ref):
       continue
     out[scene] = dict(by, **{METHOD: mine})
     done.append(scene)
