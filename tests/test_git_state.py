@@ -50,3 +50,12 @@ def test_git_state_tells_a_code_change_from_a_docs_change(tmp_path):
 def test_peak_is_measured_once_per_process():
   a = git_state.matmul_peak_gflops()
   assert git_state.matmul_peak_gflops() == a
+
+
+def test_a_record_names_the_code_its_tool_started_with(monkeypatch):
+  """Commits made while a long run trains are not its code: stamp uses the
+  state pinned at the tool's start."""
+  started = dict(git_state.git_state(), commit="0" * 40)
+  monkeypatch.setattr(git_state, "_STARTED", {"git": started})
+  record = git_state.stamp({"psnr": 1.0})
+  assert record["provenance"]["git"] == started

@@ -468,6 +468,7 @@ def define_flags():
 def main(argv):
   del argv
   logging.set_verbosity(logging.WARNING)
+  git_state.pin_start()  # the code this process runs, whatever is committed meanwhile
   study = STUDIES[FLAGS.study]
   if not FLAGS.report_only:
     if hasattr(os, "sched_setaffinity"):

@@ -240,6 +240,7 @@ def has_data(scene) -> bool:
 def main(argv):
   del argv
   logging.set_verbosity(logging.WARNING)
+  git_state.pin_start()  # the code this process runs, whatever is committed meanwhile
   suite = suites.SUITES[FLAGS.suite]
   if suite.cores and hasattr(os, "sched_setaffinity"):
     # Before JAX starts its thread pool: the same cores for every run.

@@ -104,8 +104,20 @@ def collect(measure_peak: bool = True) -> dict:
   return dict(provenance.collect(), **_clone(measure_peak))
 
 
+_STARTED = {}  # the clone's git state when a long-running tool started (pin_start)
+
+
+def pin_start() -> None:
+  """Takes the clone's git state now, at a tool's start, for every record it
+  stamps: the code its runs execute is what it imported then, and commits made
+  while it trains must not be named as theirs."""
+  _STARTED["git"] = git_state()
+
+
 def stamp(record: dict) -> dict:
-  """`record` (a run's result) with the clone's git state and the matmul peak
-  in its provenance."""
-  record["provenance"] = dict(record.get("provenance") or {}, **_clone())
+  """`record` (a run's result) with the clone's git state (pinned at the
+  tool's start where it was: pin_start) and the matmul peak in its provenance."""
+  clone = _clone()
+  clone["git"] = _STARTED.get("git", clone["git"])
+  record["provenance"] = dict(record.get("provenance") or {}, **clone)
   return record
