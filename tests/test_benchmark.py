@@ -6,7 +6,7 @@ import shutil
 
 import pytest
 
-from halo_jax import configure, datasets, frozen  # pylint: disable=g-import-not-at-top
+from halo_jax import configure, datasets, frozen, protocol  # pylint: disable=g-import-not-at-top
 from halo_jax.stages import collapse  # pylint: disable=g-import-not-at-top
 from experiments.bench import benchmark, suites  # pylint: disable=g-import-not-at-top
 from conftest import resolved
@@ -168,3 +168,21 @@ def test_the_budget_studys_suites_are_the_validation_suite_at_other_budgets(tmp_
     dynamic = scene.config.startswith("configs/dnerf.py")
     assert scene.seeds == (suites.DYNAMIC_SEEDS_960 if dynamic else same.seeds)
     assert dataclasses.replace(scene, seeds=same.seeds) == same
+
+
+def test_a_record_short_of_a_switch_added_since_is_the_same_run(tmp_path):
+  # the 60-s run of a 360-degree scene: Hi stops far short of HALO's switch
+  scene = next(s for s in suites.VALIDATION.scenes if s.name == "spheres")
+  now = benchmark.configure(suites.BUDGET_60, scene, "halo", 0, "budget", str(tmp_path))
+  assert now.hi.sampler.switch_step > protocol.effective(now).hi.budget_steps
+  record = {"resolved_config": json.loads(
+      frozen.replaced(now, {"hi.sampler.switch_step": 0}).to_json_best_effort())}
+  same = benchmark._same_config  # pylint: disable=protected-access
+  assert same(now, record)
+  # the same record past the switch: another run, trained again
+  past = frozen.replaced(now, {"hi.sampler.switch_step": 0,
+                               "plan.hi.budget_steps": now.hi.sampler.switch_step + 1})
+  assert not same(frozen.replaced(now, {"plan.hi.budget_steps": now.hi.sampler.switch_step + 1}),
+                  {"resolved_config": json.loads(past.to_json_best_effort())})
+  # a switch of another size, unreached, is no switch either
+  assert same(frozen.replaced(now, {"hi.sampler.switch_samples": 128}), record)

@@ -471,3 +471,24 @@ def test_freenerf_mask_is_fully_open_at_90_percent_of_the_steps_a_run_trains():
   both = protocol.effective(configure.compose(spec, "halo+freenerf", protocol=240.0))
   n = budget.last_step(both.hi)
   assert float(radiance.band_fraction(both.hi, 0.9 * n)) == 1.0 and n == both.hi.budget_steps
+
+
+def test_halo_doubles_hi_samples_after_its_switch_where_it_has_fewer_than_the_baseline():
+  from halo_jax.methods import halo
+  cpu = configure.load("configs/blender.py:lego_8view_cpu", "halo").hi.sampler
+  assert (cpu.num_samples, cpu.switch_step, cpu.switch_samples) == (32, halo.SWITCH_STEP, 64)
+  assert configure.load("configs/procedural.py:spheres_8view_cpu", "halo+freenerf") \
+      .hi.sampler.switch_step == halo.SWITCH_STEP
+  # the paper's 128 samples in the window outnumber the baseline's 64: no switch
+  assert configure.load("configs/blender.py:lego_8view", "halo").hi.sampler.switch_step == 0
+  assert configure.load("configs/blender.py:lego_8view_cpu", "halo_auto") \
+      .hi.sampler.switch_step == halo.SWITCH_STEP
+  # the other kinds, and the baselines: none
+  for spec, name in (("configs/blender.py:lego_8view_cpu", "nerf_tuned"),
+                     ("configs/llff.py:fern_4view_cpu", "halo"),
+                     ("configs/dnerf.py:hook_cpu", "halo")):
+    assert configure.load(spec, name).hi.sampler.switch_step == 0, (spec, name)
+  # an override wins over the rule
+  off = configure.load("configs/blender.py:lego_8view_cpu", "halo",
+                       overrides={"hi.sampler.switch_step": 0})
+  assert off.hi.sampler.switch_step == 0

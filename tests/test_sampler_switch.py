@@ -7,11 +7,12 @@ import json
 import math
 import os
 
+import ml_collections
 import numpy as np
 import pytest
 
 from conftest import pipeline_config, resolved, tiny_config
-from halo_jax import pipeline, protocol, registry, sampler_switch, step_table, validate
+from halo_jax import frozen, pipeline, protocol, registry, sampler_switch, step_table, validate
 from halo_jax.configure import finish
 from halo_jax.stages import budget
 
@@ -148,3 +149,39 @@ def test_the_steps_after_the_switch_sample_more_and_a_resumed_run_agrees(scene_r
   resumed = pipeline.run(finish(c), wd)["hi"]
   np.testing.assert_allclose(_losses(wd)[6], switched_loss[6], rtol=1e-5)
   assert resumed["eval"]["psnr"] == pytest.approx(switched["eval"]["psnr"], abs=1e-3)
+
+
+def test_a_self_measured_count_prices_the_steps_past_the_switch_at_their_own_rate():
+  cfg = frozen.freeze(ml_collections.ConfigDict(
+      dict(max_seconds=10.0, steps=10 ** 4, stop_at_step=0, budget_steps=0, min_steps=1)))
+  assert budget.fixed_count(cfg, 0.1) == 100
+  # 50 steps at 0.1 s, then (10 - 5) / 0.3 = 16.7: the 17th crosses the time
+  assert budget.fixed_count(cfg, 0.1, 0.3, 50) == 67
+  assert budget.fixed_count(cfg, 0.1, 0.3, 200) == 100  # never reaches its switch
+  assert budget.measured_seconds(0.1, 0.3, 50, 40, 60) == pytest.approx(10 * 0.1 + 10 * 0.3)
+  assert budget.measured_seconds(0.1, 0.0, 50, 40, 60) == pytest.approx(20 * 0.1)
+
+
+@pytest.mark.slow
+def test_a_self_measured_stage_times_its_steps_past_its_switch_and_keeps_its_count(
+    scene_root, tmp_path):
+  c = tiny_config(method="")
+  c.data.root = scene_root
+  c.eval.lpips = False
+  c.hi.update(steps=10 ** 4, eval_every=0, checkpoint_every=10 ** 4, log_every=100)
+  c.hi.sampler.update(switch_step=30, switch_samples=32)
+  protocol.budget(c, 3.0)
+  c.step_table = str(tmp_path / "empty.json")  # no entry: the stage times itself
+  wd = str(tmp_path / "run")
+  infos = pipeline.run(finish(c), wd)
+  fixed = budget.read_fixed(wd, "hi")
+  assert "after_pending" not in fixed and fixed["after_step_s"] > 0
+  assert infos["hi"]["step"] == fixed["steps"] == infos["hi"]["fixed_steps"] > 30
+  assert infos["hi"]["measured_after_step_s"] == fixed["after_step_s"]
+  hi = protocol.effective(finish(c)).hi
+  # its 3 s (less any set-up before its loop), each side of the switch at its rate
+  assert fixed["steps"] <= max(30 + budget.MEASURE_STEPS, budget.fixed_count(
+      hi, fixed["step_s"], fixed["after_step_s"], 30))
+  assert 30 * fixed["step_s"] + (fixed["steps"] - 31) * fixed["after_step_s"] < 3.0
+  again = pipeline.run(finish(c), wd)  # a relaunch keeps the count it fixed
+  assert again["hi"]["step"] == fixed["steps"]

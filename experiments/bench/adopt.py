@@ -22,11 +22,34 @@ def _comparable(resolved: dict) -> dict:
   generated in)."""
   # as the stages train it (a plan laid over its stages), so that a record
   # written before the plan was a section of its own compares alike
-  out = config_files.dotted_fields(protocol.applied(resolved))
+  out = _unreached_switches_off(config_files.dotted_fields(protocol.applied(resolved)))
   if out.get("data.kind") == "procedural":
     out.pop("data.root", None)
   elif out.get("data.root"):
     out["data.root"] = os.path.join(*os.path.normpath(out["data.root"]).split(os.sep)[-2:])
+  return out
+
+
+def _unreached_switches_off(fields: dict) -> dict:
+  """Dotted fields with the sampler switch of each stage that never reaches it
+  set to the base config's (none): a stage that trains no more steps than its
+  `sampler.switch_step` computes exactly what it computes without the switch
+  (halo_jax/sampler_switch.py), so a default switch that a short run does not
+  reach leaves that run's record standing."""
+  base = _defaults()
+  out = dict(fields)
+  for key, switch in fields.items():
+    if not key.endswith(".sampler.switch_step") or not switch:
+      continue
+    stage = key[:-len(".sampler.switch_step")]
+    steps = fields.get(f"{stage}.steps", 0)  # the cap; a budget's count within it
+    if fields.get(f"{stage}.budget_steps"):
+      steps = min(steps, fields[f"{stage}.budget_steps"]) if steps else fields[f"{stage}.budget_steps"]
+    if steps and steps <= switch:
+      for field in ("switch_step", "switch_samples", "switch_kind"):
+        dotted = f"{stage}.sampler.{field}"
+        if dotted in base:
+          out[dotted] = base[dotted]
   return out
 
 

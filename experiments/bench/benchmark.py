@@ -219,8 +219,12 @@ def _state(path, scene, suite, add_fronts=False, config=None):
 
 def _same_config(config, record) -> bool:
   """Whether a record's run is `config`'s: its resolved config, with the
-  render fields a rescored record was scored with (rescore.py) laid over."""
+  render fields a rescored record was scored with (rescore.py) laid over.
+  A record older than resolved configs in records cannot be compared, and
+  stands (its code's fingerprint is what vouches for it)."""
   from experiments.bench import adopt  # pylint: disable=import-outside-toplevel  (it reads runs)
+  if "resolved_config" not in record:
+    return True
   theirs = json.loads(json.dumps(record["resolved_config"]))
   for dotted, value in (record.get("rescored_from") or {}).get("fields", ()):
     *path, field = dotted.split(".")

@@ -14,9 +14,11 @@ _DEPTH_GUIDED = suites.VALIDATION_360 + tuple(s for s in suites.VALIDATION_SCENE
 
 
 def _window(r=0.3, full=0, kind="depth_guided", samples=32, coarse=64):
+  """Hi's sampler as the variant names it, with no switch (a variant that
+  switches says so, after this)."""
   return (("hi.sampler.kind", kind), ("hi.sampler.num_samples", samples),
           ("hi.sampler.num_coarse", coarse), ("hi.sampler.window", r),
-          ("hi.sampler.num_full", full))
+          ("hi.sampler.num_full", full), ("hi.sampler.switch_step", 0))
 
 
 # Hi-NeRF's window narrowing from the whole ray, and NeRF's fine pass inside

@@ -107,7 +107,8 @@ def fingerprint_table(config, counts: dict) -> dict:
     share_s = config.budget_s * shares[n] / total
     entry = {"step_s": share_s / counts[n], "setup_s": 0.0, "source": "fingerprint"}
     entries[step_table.key(keyed, n)] = entry
-    if n in switches:  # its steps past its sampler switch, at the same rate
+    if n in switches and counts[n] > sampler_switch.switch_step(config[n]):
+      # its steps past its sampler switch, at the same rate
       entries[step_table.after_switch_key(keyed, n)] = entry
   return {"machine": {"source": "fingerprint run (experiments/bench/fingerprint.py)"},
           "entries": entries}

@@ -6,7 +6,8 @@ Under every protocol (halo_jax/protocol.py) a stage runs to a step count
 known before its loop starts, except a budgeted stage whose sizes the step
 table lacks: it has `max_seconds` (its share of the budget, less the set-up
 work it did first) and fixes its count after its first MEASURE_STEPS steps
-(`fixed_count`). No loop stops on the clock.
+(`fixed_count`); one that passes its sampler switch fixes it again once it
+has timed as many steps past the switch. No loop stops on the clock.
 """
 import json
 import math
@@ -55,12 +56,25 @@ def last_step(cfg) -> int:
   return min(cfg.steps, cfg.stop_at_step or cfg.steps, cfg.get("budget_steps", 0) or cfg.steps)
 
 
-def fixed_count(cfg, step_s: float) -> int:
-  """The step count of a self-measuring stage whose steps take `step_s`:
-  the step that crosses max_seconds is taken, and at least
+def fixed_count(cfg, step_s: float, after_s: float = 0.0, switch: int = 0) -> int:
+  """The step count of a self-measuring stage whose steps take `step_s`, and
+  `after_s` past its sampler switch `switch` (0.0: not measured yet, or no
+  switch): the step that crosses max_seconds is taken, and at least
   min(min_steps, steps), at most last_step."""
   count = math.ceil(cfg.max_seconds / max(step_s, 1e-9) - 1e-9)
+  if switch and after_s and count > switch:
+    count = switch + math.ceil((cfg.max_seconds - switch * step_s) / after_s - 1e-9)
   return max(1, min(max(count, min(cfg.min_steps, cfg.steps)), last_step(cfg)))
+
+
+def measured_seconds(step_s: float, after_s: float, switch: int, first: int, last: int) -> float:
+  """Seconds of a self-measuring stage's steps first+1 .. last: `step_s` a
+  step up to its switch (0: none), `after_s` past it (0.0: not measured
+  yet, taken as `step_s`)."""
+  if not switch or not after_s:
+    return (last - first) * step_s
+  before = max(min(last, switch) - min(first, switch), 0)
+  return before * step_s + (last - first - before) * after_s
 
 
 def _fixed_path(workdir, name):
@@ -68,7 +82,10 @@ def _fixed_path(workdir, name):
 
 
 def read_fixed(workdir, name):
-  """{'steps', 'step_s'} a self-measuring stage fixed earlier (None if none)."""
+  """{'steps', 'step_s'[, 'after_step_s' or 'after_pending']} a self-measuring
+  stage fixed earlier (None if none): a stage that passes its sampler switch
+  fixes a count before it (`after_pending`) and again once it has timed its
+  steps past it."""
   path = _fixed_path(workdir, name)
   if not os.path.exists(path):
     return None
@@ -76,7 +93,13 @@ def read_fixed(workdir, name):
     return json.load(f)
 
 
-def write_fixed(workdir, name, steps: int, step_s: float):
+def write_fixed(workdir, name, steps: int, step_s: float, after_step_s: float = 0.0,
+                after_pending: bool = False):
   os.makedirs(os.path.dirname(_fixed_path(workdir, name)), exist_ok=True)
+  out = {"steps": int(steps), "step_s": float(step_s)}
+  if after_step_s:
+    out["after_step_s"] = float(after_step_s)
+  if after_pending:
+    out["after_pending"] = True
   with open(_fixed_path(workdir, name), "w") as f:
-    json.dump({"steps": int(steps), "step_s": float(step_s)}, f)
+    json.dump(out, f)

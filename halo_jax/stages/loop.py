@@ -9,7 +9,8 @@ from typing import Callable, Optional
 import jax
 
 from halo_jax import checkpoint, parallel, tensorboard
-from halo_jax.stages import budget, collapse, pacing, preemption, progress, selection, snapshots
+from halo_jax.stages import (budget, collapse, pacing, preemption, progress, selection,
+                             self_timed, snapshots)
 from halo_jax.stages.metrics_log import MetricsLog
 from halo_jax.stages.step import NONFINITE_WHAT, initial_state, make_step, optimizer, schedule
 
@@ -36,18 +37,14 @@ class _Run:
   """One stage's loop state: the train state, its clock and its records."""
 
   def __init__(self, name, cfg, train_state, wall_s, mngr, log, eval_fn, wall_offset,
-               board=None, snaps=None, pacer=None, select=None, workdir=""):
+               board=None, snaps=None, pacer=None, select=None, workdir="", switch_step=0):
     self.name, self.cfg, self.state, self.wall_s = name, cfg, train_state, wall_s
     self.workdir = workdir
     self.start_step, self.start_wall = int(train_state["step"]), wall_s
-    # The loop's last step. A self-measuring stage (max_seconds) fixes it once
-    # after its first steps, and a resumed one keeps what it fixed.
-    self.last = budget.last_step(cfg)
-    self.measured_step_s = 0.0
-    fixed = budget.read_fixed(workdir, name) if cfg.max_seconds else None
-    self.fixed = fixed is not None
-    if fixed:
-      self.last, self.measured_step_s = fixed["steps"], fixed["step_s"]
+    # the loop's last step, which a self-measuring stage (max_seconds) fixes
+    # on the way, and a resumed one keeps
+    self.timed = self_timed.SelfTimed(cfg, workdir, name, switch_step,
+                                      (self.start_step, self.start_wall))
     self.select = select  # (selection.Best, select_fn) or None
     self.snaps = snaps  # snapshots.Snapshots or None
     self.pacer = pacer  # pacing.Pacer or None
@@ -66,28 +63,30 @@ class _Run:
     cfg = self.cfg
     if cfg.get("ref_step_s", 0.0):
       return budget.reference_seconds(cfg, step, cfg.ref_offset_s)
-    if self.measured_step_s:
-      return self.wall_offset + self.start_wall + (step - self.start_step) * self.measured_step_s
+    if self.timed.step_s:
+      return self.wall_offset + self.start_wall + self.timed.seconds(self.start_step, step)
     return self.wall_offset + self.wall_s
 
+  @property
+  def last(self) -> int:
+    return self.timed.last
+
   def fix_count(self, step):
-    """A self-measuring stage fixes its last step once it has timed
-    MEASURE_STEPS steps (or spent its time first), and says so."""
-    cfg = self.cfg
-    done = step - self.start_step
-    if self.fixed or not cfg.max_seconds or (done < budget.MEASURE_STEPS
-                                             and self.wall_s < cfg.max_seconds):
+    """A self-measuring stage fixes its count when it has timed enough
+    steps (self_timed.py), and says so."""
+    if not self.timed.due(step, self.wall_s):
       return
     self.finish_step()
-    self.measured_step_s = (self.wall_s - self.start_wall) / max(done, 1)
-    self.last = max(step, budget.fixed_count(cfg, self.measured_step_s))
-    self.fixed = True
+    what = self.timed.fix(step, self.wall_s)
     if parallel.is_primary():
-      budget.write_fixed(self.workdir, self.name, self.last, self.measured_step_s)
-      print(f"stage {self.name}: no reference step time for its sizes; "
-            f"{self.measured_step_s:.4g} s a step on this machine fixes {self.last} steps for "
-            f"its {cfg.max_seconds:.1f} s (this machine's count: `python -m experiments.step_times` adds the entry)",
-            flush=True)
+      self.timed.write()
+      print(f"stage {self.name}: no reference step time for its sizes; {what} (this machine's "
+            "count: `python -m experiments.step_times` adds the entry)", flush=True)
+
+  def at_switch(self, step):
+    """The loop is at its sampler switch (or resumed past it)."""
+    self.finish_step()
+    self.timed.at_switch(step, self.wall_s)
 
   def finish_step(self):
     """Waits for the step in flight, counting the wait as training time."""
@@ -250,7 +249,8 @@ def train(name: str, cfg, workdir: str, params, loss_fn: Callable, data, seed: i
   start = int(train_state["step"])
   board = tensorboard.open_writer(workdir, name, start) if parallel.is_primary() else None
   run = _Run(name, cfg, train_state, wall_s, mngr, log, eval_fn, wall_offset, board, None, pacer,
-             select_fn and (selection.Best(workdir, name), select_fn), workdir)
+             select_fn and (selection.Best(workdir, name), select_fn), workdir,
+             switch[0] if switch else 0)
   if snapshot_s:
     run.snaps = snapshots.Snapshots(workdir, name, snapshot_s, start, run.clock(start))
   data = parallel.replicate(data, mesh)
@@ -303,11 +303,12 @@ def _info(run, start, step, compile_s, baseline) -> dict:
           # the method's reference seconds at the stage's end (the next stage's offset)
           "reference_end_s": run.clock(step),
           # the floor of steps outlasted the stage's share of the budget
-          "past_time_cap": bool(cfg.max_seconds and run.measured_step_s
-                                and step * run.measured_step_s > cfg.max_seconds
+          "past_time_cap": bool(cfg.max_seconds and run.timed.step_s
+                                and run.timed.seconds(0, step) > cfg.max_seconds
                                 and step <= cfg.min_steps),
-          **({"fixed_steps": run.last, "measured_step_s": run.measured_step_s}
-             if run.measured_step_s else {}),
+          **({"fixed_steps": run.last, "measured_step_s": run.timed.step_s}
+             if run.timed.step_s else {}),
+          **({"measured_after_step_s": run.timed.after_s} if run.timed.after_s else {}),
           "learned": collapse.judge(
               run.log.training_psnr(run.name, baseline.key if baseline else "psnr"), baseline,
               # the crop's and the foreground start's batches are not the constant's pixels
@@ -320,9 +321,12 @@ def _loop(run, step_fn, data, base_key, bar, start, cfg, later=None):
   stage fixes on the way); returns the last step taken. later: (switch step,
   () -> the compiled step after it) or None."""
   step, in_flight = start, None  # in_flight: the loss of the step before the current one
+  if run.timed.switch_step and start >= run.timed.switch_step:
+    run.at_switch(start)
   while step < run.last:
     if later is not None and step == later[0]:
       step_fn, later = later[1](), None
+      run.at_switch(step)
     step += 1
     if run.pacer is not None:
       run.pacer.wait_turn(run)
@@ -338,8 +342,8 @@ def _loop(run, step_fn, data, base_key, bar, start, cfg, later=None):
     run.wall_s += dt
     bar.advance(step, dt, run.wall_s)
     run.fix_count(step)
-    if bar.timed and run.fixed:  # its count is fixed (or was, before a resume)
-      bar.to_steps(step, run.last, cfg.max_seconds, run.measured_step_s)
+    if bar.timed and run.timed.fixed:  # its count is fixed (or was, before a resume)
+      bar.to_steps(step, run.last, cfg.max_seconds, run.timed.step_s)
     run.after_step(step, loss, aux, bar)
     if run.pacer is not None:
       run.paced(step, loss, aux)
