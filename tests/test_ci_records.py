@@ -34,3 +34,9 @@ def test_the_newest_record_is_the_latest_date(tmp_path):
 def test_a_file_that_is_not_a_record_is_named(tmp_path, broken):
   with pytest.raises(ValueError, match="bad.txt: not a CI record"):
     ci_records.parse(broken, "bad.txt")
+
+
+def test_a_duration_rounds_to_whole_seconds_before_minutes():
+  assert ci_records.minutes(1439.6) == "24 min 0 s"
+  assert ci_records.minutes(1366.4) == "22 min 46 s"
+  assert ci_records.minutes(59.5) == "1 min 0 s"

@@ -48,6 +48,8 @@ _BASELINE_DENSE_EVAL = (("hi.sampler.dense_eval_after", DENSE_EVAL_AFTER),
 # step-table entry, so at 960 s it trains fewer steps than `halo`.
 SAMPLES_SWITCH = DENSE_EVAL_AFTER
 _SAMPLES_64 = (("hi.sampler.switch_step", SAMPLES_SWITCH), ("hi.sampler.switch_samples", 64))
+_BASELINE_SAMPLES_128 = (("hi.sampler.switch_step", SAMPLES_SWITCH),
+                         ("hi.sampler.switch_samples", 128))
 
 
 def _hi_window_study(budget_s: float) -> Study:
@@ -96,6 +98,10 @@ def _hi_window_study(budget_s: float) -> Study:
                   f"the baseline, trained as it is; once it has trained {DENSE_EVAL_AFTER} "
                   "steps, its held-out views are rendered with twice its 64 samples (the "
                   "same chance)"),
+          Variant(f"nerf_tuned_samples_128_after_{SAMPLES_SWITCH}", "nerf_tuned",
+                  _BASELINE_SAMPLES_128,
+                  f"the baseline with twice its 64 samples once it has trained "
+                  f"{SAMPLES_SWITCH} steps (the same chance as HALO's switch)"),
       ),
       reference="halo", seeds=2, budget="time", front=False, budget_s=budget_s)
 

@@ -73,8 +73,10 @@ def newest(folder: str = FOLDER):
   return max(records, key=lambda r: (r.date, _commit_time(r.commit), r.commit))
 
 
-def _minutes(seconds: float) -> str:
-  return f"{int(seconds // 60)} min {int(round(seconds % 60))} s"
+def minutes(seconds: float) -> str:
+  """'23 min 59 s': whole seconds first, so 1439.6 s is 24 min 0 s."""
+  whole = int(round(seconds))
+  return f"{whole // 60} min {whole % 60} s"
 
 
 def readme_sentence(rec: Record) -> str:
@@ -85,6 +87,6 @@ def readme_sentence(rec: Record) -> str:
                     if c.get(k))
   return (f"CI (`.ci/run` on a fresh machine: the install, Chromium for the viewer's browser "
           f"test, then the second command, its tests on two pytest-xdist workers) took "
-          f"{_minutes(rec.total_s)} on a fresh clone of {rec.commit}, {rec.machine}, "
-          f"{rec.date}, {rec.conditions}: {_minutes(rec.tests_s)} in the tests, {tally} "
+          f"{minutes(rec.total_s)} on a fresh clone of {rec.commit}, {rec.machine}, "
+          f"{rec.date}, {rec.conditions}: {minutes(rec.tests_s)} in the tests, {tally} "
           f"([{rel}]({rel})).")

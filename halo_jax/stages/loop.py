@@ -71,17 +71,18 @@ class _Run:
   def last(self) -> int:
     return self.timed.last
 
-  def fix_count(self, step):
+  def fix_count(self, step) -> bool:
     """A self-measuring stage fixes its count when it has timed enough
-    steps (self_timed.py), and says so."""
+    steps (self_timed.py), and says so; returns whether it did."""
     if not self.timed.due(step, self.wall_s):
-      return
+      return False
     self.finish_step()
     what = self.timed.fix(step, self.wall_s)
     if parallel.is_primary():
       self.timed.write()
       print(f"stage {self.name}: no reference step time for its sizes; {what} (this machine's "
             "count: `python -m experiments.step_times` adds the entry)", flush=True)
+    return True
 
   def at_switch(self, step):
     """The loop is at its sampler switch (or resumed past it)."""
@@ -341,8 +342,8 @@ def _loop(run, step_fn, data, base_key, bar, start, cfg, later=None):
     dt = time.perf_counter() - t0
     run.wall_s += dt
     bar.advance(step, dt, run.wall_s)
-    run.fix_count(step)
-    if bar.timed and run.timed.fixed:  # its count is fixed (or was, before a resume)
+    # the bar counts steps once the count is fixed (or was, before a resume)
+    if run.fix_count(step) or (bar.timed and run.timed.fixed):
       bar.to_steps(step, run.last, cfg.max_seconds, run.timed.step_s)
     run.after_step(step, loss, aux, bar)
     if run.pacer is not None:
