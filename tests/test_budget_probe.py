@@ -146,3 +146,19 @@ def test_a_probe_of_a_run_trained_again_is_named_with_both_scores():
   assert "halo seed" not in lines[0]
   probe["record_psnr"]["nerf_tuned"] = 17.457
   assert probe_report.retrained_lines({(960, "dnerf_lego"): [probe]}, by_budget) == []
+
+
+def test_a_run_past_its_switch_is_probed_from_the_sampler_it_was_scored_with():
+  import types
+  from conftest import tiny_config
+  from halo_jax.configure import finish
+  c = tiny_config()
+  c.hi.sampler.update(switch_step=4, switch_samples=16)
+  c = finish(c)
+
+  def run(step):
+    return types.SimpleNamespace(config=c, states={"hi": types.SimpleNamespace(step=step)})
+
+  past = budget_probe.as_scored(run(5)).hi.sampler
+  assert (past.num_samples, past.switch_step) == (16, 0)  # a probe's fields now replace it
+  assert budget_probe.as_scored(run(4)) is c               # short of it: as configured

@@ -470,6 +470,16 @@ def test_the_host_spread_is_each_kinds_largest_move_of_a_reruns_margin(tmp_path)
   text = "\n".join(host_spread.lines(found, code_version.kind_of, 960.0))
   assert "| dnerf | dnerf_hook | 18.00 → 17.00 | 19.00 → 19.50 | -1.00 → -2.50 | -1.50 |" in text
   assert "Largest move of a margin: 1.50 dB; median 0.85 dB over 2 pairs." in text
+  # a rerun of another config (a default changed since) is another run, not a pair
+  switched = {"hi": {"steps": 6000, "sampler": {"switch_step": 2000}},
+              "plan": {"hi": {"budget_steps": 2870}}}
+  plain = {"hi": {"steps": 6000, "sampler": {"switch_step": 0}},
+           "plan": {"hi": {"budget_steps": 2870}}}
+  runs["lego_8view"]["halo"][0]["resolved_config"] = switched
+  (tmp_path / "budget_960" / "rerun" / "lego_8view" / "halo" / "seed0.json").write_text(
+      json.dumps(dict(again["lego_8view"]["halo"], resolved_config=plain)))
+  assert sorted(host_spread.pairs(runs, host_spread.reruns(str(tmp_path), "budget_960"))) == [
+      "dnerf_hook"]
 
 
 def test_probe_retrains_of_the_same_code_join_the_host_spread():
@@ -488,3 +498,11 @@ def test_probe_retrains_of_the_same_code_join_the_host_spread():
   assert host_spread.probe_pairs(runs, [probe], lambda record, git: False) == {}
   own = dict(probe, runs={"halo": {"commit": "a"}, "nerf_tuned": {"commit": "a"}})
   assert host_spread.probe_pairs(runs, [own], same) == {}
+  # a probe of a run that sampled otherwise than the record's (a default changed) is no rerun
+  switched = {"hi": {"sampler": {"kind": "depth_guided", "num_samples": 32, "switch_step": 2000,
+                                 "switch_samples": 64, "switch_kind": ""}}}
+  runs["dnerf_hook"]["halo"][0].update(resolved_config=switched, stages={"hi": {"step": 2870}})
+  before = dict(probe, hi_sampler={"kind": "depth_guided", "num_samples": 32})
+  assert host_spread.probe_pairs(runs, [before], same) == {}
+  after = dict(probe, hi_sampler={"kind": "depth_guided", "num_samples": 64})
+  assert list(host_spread.probe_pairs(runs, [after], same)) == ["dnerf_hook (probe)"]

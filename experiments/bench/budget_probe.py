@@ -36,7 +36,7 @@ from absl import flags, logging
 import jax
 import numpy as np
 
-from halo_jax import frozen, metrics, progress, raycast, restore, samplers
+from halo_jax import frozen, metrics, progress, raycast, restore, sampler_switch, samplers
 from experiments.bench import git_state
 from experiments.bench import run_file, selection, suites, tool
 from experiments.bench.paths import REPO, result_path, workdir_of
@@ -174,6 +174,15 @@ def _check_workdir(run, record, path):
                      f"but {path} records {want}; it is not that run's workdir")
 
 
+def as_scored(run):
+  """The run's config with Hi sampling as it was scored: past its sampler
+  switch (halo_jax/sampler_switch.py), the switched sampler and no switch
+  left, so the probe's sampler fields replace what was rendered."""
+  if sampler_switch.after(run.config.hi, int(run.states["hi"].step)):
+    return sampler_switch.switched(run.config, "hi")
+  return run.config
+
+
 def probe(halo_dir, baseline_dir, halo_record, baseline_record, paths) -> dict:
   """The probe's figures for one scene and seed (see the module docstring)."""
   halo, other = restore.load(halo_dir, "hi"), restore.load(baseline_dir, "hi")
@@ -183,8 +192,9 @@ def probe(halo_dir, baseline_dir, halo_record, baseline_record, paths) -> dict:
   near, far = float(ds.near), float(ds.far)
   rays = probe_rays(views)
   gt = rays[3]
-  n_own = int(halo.config.hi.sampler.num_samples)
-  n_theirs = int(other.config.hi.sampler.num_samples)
+  scored = {id(halo): as_scored(halo), id(other): as_scored(other)}
+  n_own = int(scored[id(halo)].hi.sampler.num_samples)
+  n_theirs = int(scored[id(other)].hi.sampler.num_samples)
   variants = {  # (run, sampler fields or None for the run's own)
       "own": (halo, None), "own_twice_samples": (halo, dict(num_samples=2 * n_own)),
       "stratified_own_count": (halo, dict(kind="stratified", num_samples=n_own)),
@@ -195,17 +205,17 @@ def probe(halo_dir, baseline_dir, halo_record, baseline_record, paths) -> dict:
   renders = {}
   for key, (run, fields) in progress.steps(list(variants.items()), "renders", "probe renders"):
     fn = run.render if fields is None else base.renderer_of(
-        with_sampler(run.config, "hi", **fields), "hi", ds, run.states)
+        with_sampler(scored[id(run)], "hi", **fields), "hi", ds, run.states)
     renders[key] = _render(fn, rays, chunk)
   own, baseline = renders["own"], renders[BASELINE]
   out = {"scene_views": list(views.names), "pixel_stride": rays[4], "near": near, "far": far,
          "samplers": {k: dict(f or {}) for k, (_, f) in variants.items()},  # {}: as trained
-         "hi_sampler": {"kind": halo.config.hi.sampler.kind, "num_samples": n_own},
+         "hi_sampler": {"kind": scored[id(halo)].hi.sampler.kind, "num_samples": n_own},
          "psnr": {k: _psnr_mean(r["rgb"], gt) for k, r in renders.items()},
          "record_psnr": {METHOD: halo_record["psnr"], BASELINE: baseline_record["psnr"]}}
   labels = {k: (METHOD if run is halo else BASELINE,
-                (f or {}).get("kind", run.config.hi.sampler.kind),
-                int((f or {}).get("num_samples", run.config.hi.sampler.num_samples)))
+                (f or {}).get("kind", scored[id(run)].hi.sampler.kind),
+                int((f or {}).get("num_samples", scored[id(run)].hi.sampler.num_samples)))
             for k, (run, f) in variants.items()}
   out["one_at_a_time"] = one_at_a_time(labels, out["psnr"])
   dense = renders["twice_baseline_samples"]

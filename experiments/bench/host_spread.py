@@ -55,17 +55,26 @@ def _same_seed(runs, scene, method, seed):
   return next((r for r in runs.get(scene, {}).get(method, []) if r.get("seed") == seed), None)
 
 
+def _same_run(record: dict, rerun: dict) -> bool:
+  """Whether a rerun trained the record's run: the same resolved config (a
+  rerun made before a default changed is another run, not host noise)."""
+  from experiments.bench import adopt  # pylint: disable=import-outside-toplevel  (it reads runs)
+  if "resolved_config" not in record or "resolved_config" not in rerun:
+    return True  # older than configs in records: the fingerprint vouched for them
+  return adopt.same_resolved(rerun["resolved_config"], record["resolved_config"])
+
+
 def pairs(runs: dict, again: dict, methods=("halo", "nerf_tuned")) -> dict:
   """{scene: {'record': {method: psnr}, 'rerun': {method: psnr}, 'moved':
   margin's move (rerun - record), 'seed', 'config', 'when'}} for each scene
-  whose reruns of both `methods` have a record of the same seed in `runs`
-  ({scene: {method: [record]}})."""
+  whose reruns of both `methods` are runs of a record of the same seed in
+  `runs` ({scene: {method: [record]}}), config for config."""
   out = {}
   for scene, by in again.items():
     if not all(m in by for m in methods):
       continue
     first = {m: _same_seed(runs, scene, m, by[m].get("seed")) for m in methods}
-    if all(first.values()):
+    if all(first.values()) and all(_same_run(first[m], by[m]) for m in methods):
       out[scene] = _pair(first, {m: by[m]["psnr"] for m in methods},
                          {m: _date(by[m]) for m in methods}, by[methods[0]].get("seed"), methods)
   return out
@@ -86,11 +95,27 @@ def probe_pairs(runs: dict, probes: list, same_code, methods=("halo", "nerf_tune
     first = {m: _same_seed(runs, scene, m, seed) for m in methods}
     if not all(first.values()) or not all(same_code(first[m], git.get(m, {})) for m in methods):
       continue
+    if p.get("hi_sampler") and p["hi_sampler"] != _scored_sampler(first[methods[0]]):
+      continue  # the probed run sampled otherwise: another config, not host noise
     if all(git.get(m, {}).get("commit") == (first[m].get("provenance") or {}).get(
         "git", {}).get("commit") for m in methods):
       continue  # the record's own runs, probed where they were trained
     out[f"{scene} (probe)"] = _pair(first, mine, {m: _date(p) for m in methods}, seed, methods)
   return out
+
+
+def _scored_sampler(record: dict):
+  """{'kind', 'num_samples'} of the Hi sampler a record's run was scored
+  with (past its sampler switch, the switched one); None where the record
+  has no resolved config."""
+  hi = (record.get("resolved_config") or {}).get("hi")
+  if not hi:
+    return None
+  sampler, steps = hi["sampler"], record["stages"]["hi"]["step"]
+  if sampler.get("switch_step") and steps > sampler["switch_step"]:
+    return {"kind": sampler.get("switch_kind") or sampler["kind"],
+            "num_samples": sampler["switch_samples"]}
+  return {"kind": sampler["kind"], "num_samples": sampler["num_samples"]}
 
 
 def by_kind(found: dict, kind_of) -> dict:
