@@ -93,9 +93,12 @@ def test_smoke_suite_writes_and_skips(tmp_path):
   assert state(path, scene, suites.SMOKE, add_fronts=True) == "done"
   now = benchmark.configure(suites.SMOKE, scene, "nerf_tuned", 0, "budget", scratch)
   assert state(path, scene, suites.SMOKE, config=now) == "done"
-  # a default changed since the run, past where its fingerprint looks: rerun
-  changed = frozen.replaced(now, {"hi.sampler.switch_step": 5000})
+  # a default changed since the run, past where its fingerprint looks, at a
+  # step the run reaches: rerun; at one it never reaches: the same run
+  changed = frozen.replaced(now, {"hi.sampler.switch_step": 1})
   assert state(path, scene, suites.SMOKE, config=changed) == "stale config"
+  unreached = frozen.replaced(now, {"hi.sampler.switch_step": 10 ** 6})
+  assert state(path, scene, suites.SMOKE, config=unreached) == "done"
   assert os.path.getsize(path) < 20000
   # the front: the state at each of the suite's times the run reached, then the final
   front = saved["front"]
