@@ -42,9 +42,9 @@ def _unreached_switches_off(fields: dict) -> dict:
     if not key.endswith(".sampler.switch_step") or not switch:
       continue
     stage = key[:-len(".sampler.switch_step")]
-    steps = fields.get(f"{stage}.steps", 0)  # the cap; a budget's count within it
-    if fields.get(f"{stage}.budget_steps"):
-      steps = min(steps, fields[f"{stage}.budget_steps"]) if steps else fields[f"{stage}.budget_steps"]
+    # the stage's last step, as stages/budget.last_step counts it
+    steps = min([n for n in (fields.get(f"{stage}.{f}", 0) for f in
+                             ("steps", "stop_at_step", "budget_steps")) if n] or [0])
     if steps and steps <= switch:
       for field in ("switch_step", "switch_samples", "switch_kind"):
         dotted = f"{stage}.sampler.{field}"

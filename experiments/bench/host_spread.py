@@ -17,6 +17,8 @@ import os
 
 import numpy as np
 
+from halo_jax import sampler_switch
+
 MODE = "rerun"
 
 
@@ -111,8 +113,8 @@ def _scored_sampler(record: dict):
   hi = (record.get("resolved_config") or {}).get("hi")
   if not hi:
     return None
-  sampler, steps = hi["sampler"], record["stages"]["hi"]["step"]
-  if sampler.get("switch_step") and steps > sampler["switch_step"]:
+  sampler = hi["sampler"]
+  if sampler_switch.after(hi, record["stages"]["hi"]["step"]):
     return {"kind": sampler.get("switch_kind") or sampler["kind"],
             "num_samples": sampler["switch_samples"]}
   return {"kind": sampler["kind"], "num_samples": sampler["num_samples"]}
