@@ -173,7 +173,7 @@ def test_dynamic_crop_variants_change_only_his_crop(tmp_path):
 def test_the_default_rule_checks_each_of_its_clauses():
   """docs/validation.md's rule: 2 seeds on every scene, no scene's mean
   worse than 0.3 dB, and a gain on the mean over scenes."""
-  from experiments.bench import ablations, suites
+  from experiments.bench import default_rule, suites
   from experiments.bench.study_types import Study, Variant
   scenes = tuple(suites.Scene(n, "configs/procedural.py:spheres_8view_cpu", 2)
                  for n in ("a", "b", "c"))
@@ -186,7 +186,7 @@ def test_the_default_rule_checks_each_of_its_clauses():
       out[(scene, "new")] = [{"scene": scene, "seed": k, "psnr": 20.0 + d} for k in range(seeds)]
     return out
 
-  rule = lambda deltas, seeds=2: ablations.default_rule(study, recs(deltas, seeds), "new")  # noqa
+  rule = lambda deltas, seeds=2: default_rule.verdict(study, recs(deltas, seeds), "new")  # noqa
   assert rule((0.2, 0.1, -0.25)) == "passes"                    # a gain, no scene past 0.3
   assert rule((0.9, 0.5, -0.31)) == "fails: c -0.31"            # one scene loses too much
   assert rule((0.1, 0.1, -0.25)) == "fails: no gain on the mean (-0.02 dB)"
@@ -221,28 +221,28 @@ def _one_budget_study(budget_s=60.0):
 def test_a_variant_identical_at_the_budget_is_not_judged_there():
   """The fingerprint's identity on every scene stands for runs; on some
   scenes only, the runs are judged as ever."""
-  from experiments.bench import ablations
+  from experiments.bench import default_rule
   study = _one_budget_study()
   recs = {(s, v): [{"scene": s, "seed": k, "psnr": 20.0 + (v == "new") * 0.5} for k in range(2)]
           for s in ("a", "b") for v in ("ref", "new")}
-  assert ablations.default_rule(study, {}, "new", {"a": True, "b": True}).startswith("identical")
-  assert ablations.default_rule(study, recs, "new", {"a": True, "b": False}) == "passes"
-  assert ablations.default_rule(study, {}, "new", {"a": True}) == "not measured: a, b"
+  assert default_rule.verdict(study, {}, "new", {"a": True, "b": True}).startswith("identical")
+  assert default_rule.verdict(study, recs, "new", {"a": True, "b": False}) == "passes"
+  assert default_rule.verdict(study, {}, "new", {"a": True}) == "not measured: a, b"
 
 
 def test_a_variant_is_judged_over_its_family_where_it_differs():
-  from experiments.bench import ablations
+  from experiments.bench import default_rule
   same = "identical: the reference to the last digit"
-  assert ablations.judged_across({60.0: same, 240.0: same, 960.0: "passes"}) == \
+  assert default_rule.judged_across({60.0: same, 240.0: same, 960.0: "passes"}) == \
       "passes at 960 s (identical at 60, 240 s)"
-  assert ablations.judged_across({60.0: "passes", 960.0: "passes"}) == "passes at 60, 960 s"
-  assert ablations.judged_across({60.0: same, 960.0: "fails: a -0.40"}) == \
+  assert default_rule.judged_across({60.0: "passes", 960.0: "passes"}) == "passes at 60, 960 s"
+  assert default_rule.judged_across({60.0: same, 960.0: "fails: a -0.40"}) == \
       "fails at 960 s: a -0.40"
-  assert ablations.judged_across({60.0: same, 960.0: "not measured: a"}) == \
+  assert default_rule.judged_across({60.0: same, 960.0: "not measured: a"}) == \
       "not measured at 960 s"
-  assert ablations.judged_across({60.0: "fails: b -0.50", 960.0: "passes"}) == \
+  assert default_rule.judged_across({60.0: "fails: b -0.50", 960.0: "passes"}) == \
       "fails at 60 s: b -0.50"
-  assert ablations.judged_across({60.0: same, 240.0: same}) == \
+  assert default_rule.judged_across({60.0: same, 240.0: same}) == \
       "not measured: identical at every budget"
 
 
@@ -300,3 +300,37 @@ def test_the_dense_eval_switch_lies_between_his_steps_at_240_and_960_s():
     steps = [budget_studies.hi_steps(scene, b, "nerf_tuned")
              for b in (240.0, 960.0)]
     assert steps[0] < budget_studies.DENSE_EVAL_AFTER <= steps[1], (scene.name, steps)
+
+
+def test_a_baseline_variant_is_judged_against_its_own_method_and_per_kind():
+  """The baseline's same chance is judged as the baseline's default: against
+  the unchanged baseline, not against the study's reference; and where the
+  study spans scene kinds, each kind alone as well."""
+  from experiments.bench import default_rule, suites
+  from experiments.bench.study_types import Study, Variant
+  scenes = tuple(suites.Scene(n, "configs/procedural.py:spheres_8view_cpu", 2)
+                 for n in ("a", "b", "c"))
+  more = Variant("nerf_tuned_more", "nerf_tuned", (("hi.sampler.num_samples", 128),))
+  study = Study("t", "q", scenes, (Variant("ref", "halo"), Variant("new", "halo"),
+                                   Variant("nerf_tuned", "nerf_tuned"), more), "ref", 2)
+  assert default_rule._judged(study) == [("new", "ref"), ("nerf_tuned_more", "nerf_tuned")]
+  data = {"a": {"kind": "procedural"}, "b": {"kind": "procedural"}, "c": {"kind": "llff"}}
+  psnr = {"ref": 30.0, "new": 30.0, "nerf_tuned": 20.0}
+  gain = {"a": 0.5, "b": 0.5, "c": -0.4}   # the llff scene loses past the rule's 0.3 dB
+
+  def rec(scene, variant, seed):
+    p = psnr[variant] if variant in psnr else psnr["nerf_tuned"] + gain[scene]
+    return {"scene": scene, "seed": seed, "psnr": p, "resolved_config": {"data": data[scene]}}
+  recs = {(s, v): [rec(s, v, k) for k in range(2)] for s in data
+          for v in ("ref", "new", "nerf_tuned", "nerf_tuned_more")}
+  # against the study's reference (30 dB) it would lose 9.5 dB on every scene
+  assert default_rule.verdict(study, recs, "nerf_tuned_more", reference="nerf_tuned") == \
+      "fails: c -0.40"
+  kinds = default_rule.by_kind(study, recs)
+  assert {k: [s.name for s in v] for k, v in kinds.items()} == {"sphere": ["a", "b"],
+                                                                "ndc": ["c"]}
+  assert default_rule.verdict(study, recs, "nerf_tuned_more", reference="nerf_tuned",
+                              scenes=kinds["sphere"]) == "passes"
+  page = "\n".join(default_rule.lines("t", study, recs, ""))
+  assert "| `nerf_tuned_more` | `nerf_tuned` | fails: c -0.40 | ndc: fails: c -0.40; " \
+         "sphere: passes |" in page

@@ -29,7 +29,6 @@ PSNR at the end of its stage, the steps each stage trained, and the
 difference from the study's reference variant.
 """
 import dataclasses
-import json
 import os
 import statistics
 import sys
@@ -38,9 +37,9 @@ import traceback
 
 from absl import flags, logging
 
-from experiments.bench import (adopt, benchmark, budget_studies, code_version, fronts_report,
-                               gap_report, git_state, identity, report_common, rescore,
-                               run_file, selection, suites, tool)
+from experiments.bench import (adopt, benchmark, code_version, default_rule,
+                               fronts_report, gap_report, git_state, identity, report_common, rescore,
+                               run_file, selection, study_records, suites, tool)
 from experiments.bench.paths import REPO
 from experiments.bench.studies import MATCHED_STEPS, STUDIES, Study, Variant  # noqa: F401
 from halo_jax import frozen, progress, protocol, runs
@@ -168,37 +167,12 @@ def _rescore_all(study, todo):
     print(f"rescored {tag}: {r['psnr']:.2f} (on {r['rescored_from']['path']})", flush=True)
 
 
-def read_records(results, study_name):
-  """{(scene, variant): [record, ...]} of a study's finished runs."""
-  root = os.path.join(results, "ablations", study_name)
-  out = {}
-  if not os.path.isdir(root):
-    return out
-  for dirpath, _, files in os.walk(root):
-    for f in sorted(files):
-      if f.endswith(".json"):
-        with open(os.path.join(dirpath, f)) as fh:
-          r = json.load(fh)
-        out.setdefault((r["scene"], r["variant"]), []).append(r)
-  return out
-
-
 def _mean_std(xs):
   if not xs:
     return ""
   if len(xs) == 1:
     return f"{xs[0]:.2f}"
   return f"{statistics.mean(xs):.2f} ± {statistics.stdev(xs):.2f}"
-
-
-def _pairs(study: Study, recs, variant: str) -> list:
-  """[(record, reference record), ...]: `variant`'s runs beside the
-  reference's run of the same scene and seed, over every pair both ran."""
-  out = []
-  for scene in study.scenes:
-    ref = {r["seed"]: r for r in recs.get((scene.name, study.reference), [])}
-    out += [(r, ref[r["seed"]]) for r in recs.get((scene.name, variant), []) if r["seed"] in ref]
-  return out
 
 
 def _overall(study: Study, recs) -> list:
@@ -208,7 +182,7 @@ def _overall(study: Study, recs) -> list:
   for v in study.variants:
     if v.name == study.reference:
       continue
-    deltas = [r["psnr"] - ref["psnr"] for r, ref in _pairs(study, recs, v.name)]
+    deltas = [r["psnr"] - ref["psnr"] for r, ref in default_rule.pairs(study, recs, v.name)]
     if deltas:
       rows.append(f"| `{v.name}` | {len(deltas)} | {statistics.mean(deltas):+.2f} | "
                   f"{min(deltas):+.2f} | {sum(d < 0 for d in deltas)} |")
@@ -217,109 +191,6 @@ def _overall(study: Study, recs) -> list:
   return ["", "## Over all scenes and seeds", "",
           f"Each variant against `{study.reference}` over the (scene, seed) pairs both ran.", "",
           "| variant | pairs | mean Δ | worst Δ | pairs lost |", "|---|---|---|---|---|"] + rows
-
-
-# The rule a default's change must pass (docs/validation.md): measured on at
-# least MIN_SEEDS seeds of every scene of the kind it applies to, it may lose
-# no more than MAX_LOSS_DB (mean over seeds) on any of them.
-MIN_SEEDS, MAX_LOSS_DB = 2, 0.3
-
-
-IDENTICAL = "identical"
-
-
-def default_rule(study: Study, recs, variant: str, identical=None) -> str:
-  """Whether `variant` may replace the reference as the default
-  (docs/validation.md): with MIN_SEEDS seeds on every scene, its mean loses
-  no more than MAX_LOSS_DB on any scene, and the mean over scenes (each
-  weighs the same) is a gain. 'passes', 'fails: <scenes and their mean Δ>',
-  'fails: no gain on the mean (<Δ>)' or 'not measured: <scenes short of
-  seeds>'; or, where `identical` ({scene: bool}, identity.py's fingerprint
-  runs at the study's budget) holds on every scene, 'identical: ...': the
-  variant is the reference here, and is judged at the budgets where it
-  differs (judged_across)."""
-  if identical and all(identical.get(s.name) for s in study.scenes):
-    return (f"{IDENTICAL}: the reference to the last digit at {study.budget_s:g} s "
-            "(fingerprint runs on every scene), judged where it differs")
-  by_scene = {}
-  for r, ref in _pairs(study, recs, variant):
-    by_scene.setdefault(r["scene"], []).append(r["psnr"] - ref["psnr"])
-  short, losses, means = [], [], []
-  for scene in study.scenes:
-    deltas = by_scene.get(scene.name, [])
-    if len(deltas) < MIN_SEEDS:
-      short.append(scene.name)
-      continue
-    means.append(statistics.mean(deltas))
-    if means[-1] < -MAX_LOSS_DB:
-      losses.append(f"{scene.name} {means[-1]:+.2f}")
-  if losses:
-    return "fails: " + ", ".join(losses)
-  if short:
-    return "not measured: " + ", ".join(short)
-  if statistics.mean(means) <= 0:
-    return f"fails: no gain on the mean ({statistics.mean(means):+.2f} dB)"
-  return "passes"
-
-
-def judged_across(verdicts: dict) -> str:
-  """A variant's verdict over the budgets of its family ({budget_s: its
-  default_rule verdict there}): judged at the budgets where it differs from
-  the reference, and only there. 'fails at B s: ...' where it fails at one;
-  else 'not measured at B s' where one lacks runs; else 'passes at B s
-  (identical at C s)'; 'not measured: identical at every budget' when no
-  budget sets it apart."""
-  differs = {b: v for b, v in sorted(verdicts.items()) if not v.startswith(IDENTICAL)}
-  same = [b for b, v in sorted(verdicts.items()) if v.startswith(IDENTICAL)]
-  at = lambda bs: ", ".join(f"{b:g}" for b in bs) + " s"  # noqa: E731
-  if not differs:
-    return "not measured: identical at every budget"
-  failed = [f"at {b:g} s: {v[len('fails: '):]}" for b, v in differs.items()
-            if v.startswith("fails")]
-  if failed:
-    return "fails " + "; ".join(failed)
-  short = [b for b, v in differs.items() if v != "passes"]
-  if short:
-    return f"not measured at {at(short)}"
-  return f"passes at {at(differs)}" + (f" (identical at {at(same)})" if same else "")
-
-
-def _family_verdicts(study_name: str, variant: str, results: str) -> dict:
-  """{budget_s: default_rule verdict} of `variant` in each study of
-  `study_name`'s family that has it ({} for a study of one budget)."""
-  out = {}
-  for b, name in budget_studies.family_of(study_name).items():
-    other = STUDIES[name]
-    if any(v.name == variant for v in other.variants):
-      out[b] = default_rule(other, read_records(results, name), variant,
-                            identity.read(name, os.path.join(results, "identity")).get(variant))
-  return out
-
-
-def _rule_lines(study_name: str, study: Study, recs, results: str) -> list:
-  same = identity.read(study_name, os.path.join(results, "identity"))
-  names = [v.name for v in study.variants
-           if v.name != study.reference and v.method == study.variants[0].method]
-  if not names:
-    return []
-  family = budget_studies.family_of(study_name)
-  rows = []
-  for name in names:
-    here = default_rule(study, recs, name, same.get(name))
-    across = judged_across(_family_verdicts(study_name, name, results)) if family else ""
-    rows.append(f"| `{name}` | {here} |" + (f" {across} |" if family else ""))
-  return ["", "## Against the default rule", "",
-          f"A variant may replace `{study.reference}` only if, on at least {MIN_SEEDS} seeds of "
-          f"every scene of the study, its mean loss on no scene exceeds {MAX_LOSS_DB} dB "
-          "and its mean over the scenes (each weighs the same) is a gain "
-          "(docs/validation.md)." + (
-              " A variant that fingerprint runs show to be the reference to the last digit at "
-              f"this budget (`python -m experiments.same_numbers --study={study_name}`) is "
-              "judged at the budgets where it differs" + (
-                  " (the last column: this question at " + ", ".join(f"{b:g}" for b in family)
-                  + " s)" if family else "") + "." if study.budget == "time" else ""), "",
-          "| variant | verdict |" + (" over the budgets |" if family else ""),
-          "|---|---|" + ("---|" if family else "")] + rows
 
 
 def _overall_fronts(study: Study, recs) -> list:
@@ -333,7 +204,7 @@ def _overall_fronts(study: Study, recs) -> list:
     if v.name == study.reference:
       continue
     deltas = {t: [] for t in times + [None]}
-    for r, ref in _pairs(study, recs, v.name):
+    for r, ref in default_rule.pairs(study, recs, v.name):
       for t in deltas:
         ours, theirs = fronts_report.front_values([r], t), fronts_report.front_values([ref], t)
         if ours and theirs:
@@ -375,7 +246,7 @@ def _variant_row(study: Study, v: Variant, rs, ref) -> str:
 
 def report(study_name: str, study: Study, results: str) -> str:
   """The study's page (markdown), from its result files."""
-  recs = read_records(results, study_name)
+  recs = study_records.read(results, study_name)
   lines = [f"# Ablation: {study.title}", "",
            f"Generated by `experiments/ablations.py --study={study_name} --report_only` from "
            f"`results/ablations/{study_name}/`; do not edit.", "",
@@ -413,7 +284,7 @@ def report(study_name: str, study: Study, results: str) -> str:
                                      for r in sorted(rs, key=lambda r: r["seed"]))
           for v, rs in rows if rs) + "."]
   lines += _overall(study, recs) + gap_report.lines(study, recs)
-  lines += _rule_lines(study_name, study, recs, results)
+  lines += default_rule.lines(study_name, study, recs, results)
   lines += [""] + report_common.collapse_lines(
       [(f"{scene}/{variant}/seed{r['seed']}", r) for (scene, variant), rs in sorted(recs.items())
        for r in rs])

@@ -18,7 +18,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # pylint: disable=g-import-not-at-top
 import numpy as np  # pylint: disable=g-import-not-at-top
 
-from experiments.bench import budget_studies, code_version, host_spread  # pylint: disable=g-import-not-at-top
+from experiments.bench import budget_studies, code_version, equal_chance, host_spread  # pylint: disable=g-import-not-at-top
 from experiments.bench import probe_report, suites  # pylint: disable=g-import-not-at-top
 from experiments.bench.report_common import BASELINE, collapsed_methods, stat  # pylint: disable=g-import-not-at-top
 
@@ -422,6 +422,7 @@ def write(all_suites, docs, results="") -> str:
   out += every_scene_lines(runs, budgets[-1], host_spread.by_kind(found, code_version.kind_of),
                            found)
   if results:
+    out += equal_chance.section(runs, results, budgets[-1])
     out += probe_report.other_scenes_section(results)
     out += probe_report.dense_eval_section(
         results, budget_studies.STUDIES[f"hi_window_{budgets[-1]:g}"].scenes, budgets[-1])

@@ -50,6 +50,8 @@ SAMPLES_SWITCH = DENSE_EVAL_AFTER
 _SAMPLES_64 = (("hi.sampler.switch_step", SAMPLES_SWITCH), ("hi.sampler.switch_samples", 64))
 _BASELINE_SAMPLES_128 = (("hi.sampler.switch_step", SAMPLES_SWITCH),
                          ("hi.sampler.switch_samples", 128))
+# the baseline given the same chance as HALO's switch (equal_chance.py)
+BASELINE_TWIN = f"nerf_tuned_samples_128_after_{SAMPLES_SWITCH}"
 
 
 def _hi_window_study(budget_s: float) -> Study:
@@ -98,8 +100,7 @@ def _hi_window_study(budget_s: float) -> Study:
                   f"the baseline, trained as it is; once it has trained {DENSE_EVAL_AFTER} "
                   "steps, its held-out views are rendered with twice its 64 samples (the "
                   "same chance)"),
-          Variant(f"nerf_tuned_samples_128_after_{SAMPLES_SWITCH}", "nerf_tuned",
-                  _BASELINE_SAMPLES_128,
+          Variant(BASELINE_TWIN, "nerf_tuned", _BASELINE_SAMPLES_128,
                   f"the baseline with twice its 64 samples once it has trained "
                   f"{SAMPLES_SWITCH} steps (the same chance as HALO's switch)"),
       ),
@@ -243,7 +244,7 @@ def _lo_teacher_study(kind: str, budget_s: float) -> Study:
 
 # Each family is one question asked at every budget of the budget study:
 # {family: the study at a budget}. A variant is judged over its family
-# (ablations.judged_across): at each budget where it differs from the reference.
+# (default_rule.judged_across): at each budget where it differs from the reference.
 _FAMILIES = {
     "hi_window": _hi_window_study,
     "lo_teacher_dynamic": lambda b: _lo_teacher_study("dynamic", b),
