@@ -194,6 +194,54 @@ def test_the_default_rule_checks_each_of_its_clauses():
   assert rule((0.5, 0.5, 0.5), seeds=1) == "not measured: a, b, c"   # fewer than 2 seeds
 
 
+def test_a_suite_run_that_a_study_made_adopts_the_studys_record(tmp_path, monkeypatch):
+  """The other way round: a study's variant that has become the default is
+  the suite's run. Only a trained study run counts, of the same method and
+  config, from code that computes the same; the suite's validation scores
+  come from the record only where it holds them (one scored stage on every
+  view of the validation split)."""
+  results = str(tmp_path / "results")
+  bench = ablations.benchmark
+  suite = ablations.suites.VALIDATION
+  scene = next(s for s in suite.scenes if s.name == "spheres")
+  c = bench.configure(suite, scene, "nerf_tuned", 0, "budget", str(tmp_path / "scratch"))
+  git = {"commit": "abc1234", "code_tree": "tree_a", "code_dirty": False}
+  record = {"psnr": 23.9, "ssim": 0.9, "lpips": 0.1, "num_views": 24, "method": "nerf_tuned",
+            "stages": {"hi": {"psnr": 23.9, "step": 2600}}, "heldout_learned": {"hi": "learned"},
+            "provenance": {"git": git}, "wall_s": 900.0, "study": "s", "variant": "twin",
+            "overrides": [], "split": "val", "stop_at_step": {"hi": 0},
+            "resolved_config": json.loads(c.to_json_best_effort())}
+  path = os.path.join(results, "ablations", "s", "spheres", "twin", "seed0.json")
+  _write(path, record)
+  table = {"tree_a": {"methods": {"nerf_tuned": "fp_a"}}}
+  find = lambda cfg=c, seed=0, method="nerf_tuned", fp="fp_a": adopt.identical_study_run(  # noqa
+      cfg, scene, method, seed, results, table=table, mine_fp=fp)
+  assert find()[0] == path
+  assert find(seed=1) is None and find(method="halo") is None and find(fp="fp_b") is None
+  for copied in ("adopted_from", "rescored_from"):   # not a run of its own
+    _write(path, dict(record, **{copied: {"path": "x"}}))
+    assert find() is None
+  other = frozen.thaw(c)
+  other.hi.lr_init *= 2
+  assert find(cfg=other) is None
+  # the suite's record: the study's names dropped, the validation scores derived
+  _write(path, record)
+  monkeypatch.setattr(adopt.code_version, "load", lambda: table)
+  monkeypatch.setattr(adopt, "running_fingerprint", lambda *a, **k: "fp_a")
+  made = bench._study_run(c, scene, "nerf_tuned", 0, "budget", results)
+  assert made["adopted_from"]["path"] == "ablations/s/spheres/twin/seed0.json"
+  assert not set(bench.STUDY_FIELDS) & set(made) and made["psnr"] == 23.9
+  assert made["validation"] == {"split": "val", "num_views": 24, "stages": {
+      "hi": {"psnr": 23.9, "ssim": 0.9, "learned": "learned"}}}
+  assert bench._study_run(c, scene, "nerf_tuned", 0, "steps", results) is None
+  # two scored stages: Lo's SSIM is not in the record, so the run is trained
+  _write(path, dict(record, stages={"lo": {"psnr": 20.0}, "hi": {"psnr": 23.9}}))
+  assert bench._study_run(c, scene, "nerf_tuned", 0, "budget", results) is None
+  # the validation split is not the views the record was scored on
+  data = dict(record["resolved_config"]["data"], test_views="r_0,r_1")
+  assert adopt.validation_from(dict(record, resolved_config={"data": data}), "val") is None
+
+
 def test_an_adopted_record_names_its_source_by_path_hash_and_commit(tmp_path):
   import hashlib  # pylint: disable=import-outside-toplevel
   from experiments.bench import adopt  # pylint: disable=import-outside-toplevel

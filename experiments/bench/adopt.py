@@ -2,6 +2,7 @@
 the same code fingerprint, so the same figures, adopted instead of trained
 again (experiments/bench/ablations.py)."""
 import functools
+import glob
 import hashlib
 import json
 import os
@@ -101,9 +102,34 @@ def identical_suite_run(c, scene, method, seed, results, table=None, mine_fp=Non
   whose fingerprint is not this code's (`mine_fp`, by default the running
   checkout's in `table`, results/fingerprints.json), or that no measured
   fingerprint vouches for, is refused with a warning: its run is trained."""
+  return _vouched(same_config_runs(c, scene, method, seed, results), scene, method, table,
+                  mine_fp)
+
+
+def identical_study_run(c, scene, method, seed, results, table=None, mine_fp=None):
+  """(path, record) of a finished study run trained (not adopted or
+  rescored) with `c`'s resolved config by code that computes what this code
+  does, or None: the other way round from identical_suite_run, a variant a
+  study measured that has since become the default is the suite's run."""
+  runs = []
+  for path in sorted(glob.glob(os.path.join(results, "ablations", "*", scene.name, "*",
+                                            f"seed{seed}.json"))):
+    with open(path) as f:
+      record = json.load(f)
+    if (record.get("method") == method and not record.get("adopted_from")
+        and not record.get("rescored_from") and "resolved_config" in record
+        and _same_config(_comparable(json.loads(c.to_json_best_effort())),
+                         _comparable(record["resolved_config"]))):
+      runs.append((path, record))
+  return _vouched(runs, scene, method, table, mine_fp)
+
+
+def _vouched(runs, scene, method, table, mine_fp):
+  """The first of `runs` ([(path, record)]) whose code's measured fingerprint
+  is the running code's, or None (each other refused with a warning)."""
   table = code_version.load() if table is None else table
   mine_fp = running_fingerprint(method, table, scene.config) if mine_fp is None else mine_fp
-  for path, record in same_config_runs(c, scene, method, seed, results):
+  for path, record in runs:
     theirs_fp = code_version.of_record(record, table)
     if theirs_fp == mine_fp and mine_fp not in UNVOUCHED:
       return path, record
@@ -111,6 +137,21 @@ def identical_suite_run(c, scene, method, seed, results, table=None, mine_fp=Non
                     "is %s and this code's %s (same_numbers.py --record measures it)",
                     path, theirs_fp, mine_fp)
   return None
+
+
+def validation_from(record: dict, split: str):
+  """The suite's `validation` field (benchmark.score_validation) that a
+  record already holds, or None: where its held-out views are every view of
+  `split` and one stage is scored (the one with SSIM and a held-out verdict
+  in the record), that stage's figures are what scoring it again computes."""
+  data = record["resolved_config"]["data"]
+  scored = [n for n, stage in record["stages"].items() if "psnr" in stage]
+  if (data.get("test_split") != split or data.get("test_views") != "all" or len(scored) != 1
+      or scored[0] not in record.get("heldout_learned", {})):
+    return None
+  return {"split": split, "num_views": record["num_views"],
+          "stages": {scored[0]: {"psnr": record["psnr"], "ssim": record["ssim"],
+                                 "learned": record["heldout_learned"][scored[0]]}}}
 
 
 def same_config_runs(c, scene, method, seed, results):
@@ -130,7 +171,7 @@ def same_config_runs(c, scene, method, seed, results):
 
 
 def source(path: str, results: str) -> dict:
-  """What an adopted record names of the suite record it copies: its path
+  """What an adopted record names of the record it copies: its path
   under `results`, the sha256 of its bytes, and the last commit that wrote
   that file (None where git cannot say: a file not committed yet)."""
   with open(path, "rb") as f:

@@ -141,11 +141,13 @@ def run_one(suite_name, suite, scene, method, seed, mode, results, scratch) -> d
   c = configure(suite, scene, method, seed, mode, scratch)
   workdir = workdir_of(scratch, suite_name, mode, scene, method, seed)
   start = time.time()
-  record = git_state.stamp(runs.run_method(c, workdir))
-  if c.eval.front_s:
-    record["front"] = front_points(workdir, record, c.eval.lpips)
-  if scene.validation:
-    record["validation"] = score_validation(workdir, record, scene.validation)
+  record = _study_run(c, scene, method, seed, mode, results)
+  if record is None:
+    record = git_state.stamp(runs.run_method(c, workdir))
+    if c.eval.front_s:
+      record["front"] = front_points(workdir, record, c.eval.lpips)
+    if scene.validation:
+      record["validation"] = score_validation(workdir, record, scene.validation)
   record.update(suite=suite_name, scene=scene.name, config=scene.config, method=method,
                 scene_overrides=[list(o) for o in scene.overrides],
                 seed=seed, mode=mode, budget_s=c.budget_s,
@@ -154,6 +156,27 @@ def run_one(suite_name, suite, scene, method, seed, mode, results, scratch) -> d
   path = result_path(results, suite_name, mode, scene, method, seed)
   run_file.write_json(path, record)
   return record
+
+
+STUDY_FIELDS = ("study", "variant", "overrides", "split", "stop_at_step")
+
+
+def _study_run(c, scene, method, seed, mode, results):
+  """A study's run of this suite run's resolved config, made by code that
+  computes what this code does (adopt.identical_study_run), as the suite's
+  record with `adopted_from`; or None where there is none, or where it lacks
+  a figure the suite's record holds (fronts, or validation scores it cannot
+  give without its workdir): that run is trained."""
+  from experiments.bench import adopt  # pylint: disable=import-outside-toplevel  (it reads runs)
+  same = adopt.identical_study_run(c, scene, method, seed, results) if mode == "budget" else None
+  if same is None or (c.eval.front_s and not same[1].get("front")):
+    return None
+  record = {k: v for k, v in same[1].items() if k not in STUDY_FIELDS}
+  if scene.validation:
+    record["validation"] = adopt.validation_from(record, scene.validation)
+    if record["validation"] is None:
+      return None
+  return dict(record, adopted_from=adopt.source(same[0], results))
 
 
 def _fill(path, field, fill, done) -> str:
@@ -286,7 +309,8 @@ def main(argv):
       print(f"FAILED   {tag}", flush=True)
       failed.append(tag)
       continue
-    print(f"ran      {tag}: PSNR {r['psnr']:.2f}  SSIM {r['ssim']:.3f}  LPIPS "
+    verb = "adopted " if r.get("adopted_from") else "ran     "
+    print(f"{verb} {tag}: PSNR {r['psnr']:.2f}  SSIM {r['ssim']:.3f}  LPIPS "
           f"{r['lpips'] if r['lpips'] is None else round(r['lpips'], 3)}  "
           f"{r['wall_s']:.0f} s training, {r['run_seconds']:.0f} s in all", flush=True)
   if failed:
