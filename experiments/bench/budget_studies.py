@@ -39,7 +39,7 @@ _DENSE_EVAL = (("hi.sampler.dense_eval_after", DENSE_EVAL_AFTER),
                ("hi.sampler.dense_eval_samples", 64))
 # The same chance for the baseline: its own stratified sampler, twice its samples.
 _BASELINE_DENSE_EVAL = (("hi.sampler.dense_eval_after", DENSE_EVAL_AFTER),
-                        ("hi.sampler.dense_eval_samples", 128))
+                        ("hi.sampler.dense_eval_samples", 128), ("hi.sampler.switch_step", 0))
 
 
 # Hi's samples in the window doubled once it has trained this long
@@ -50,8 +50,11 @@ SAMPLES_SWITCH = DENSE_EVAL_AFTER
 _SAMPLES_64 = (("hi.sampler.switch_step", SAMPLES_SWITCH), ("hi.sampler.switch_samples", 64))
 _BASELINE_SAMPLES_128 = (("hi.sampler.switch_step", SAMPLES_SWITCH),
                          ("hi.sampler.switch_samples", 128))
-# the baseline given the same chance as HALO's switch (equal_chance.py)
+# the baseline given the same chance as HALO's switch (equal_chance.py), and the
+# baseline without it: the study's `halo` has no switch either (_window)
 BASELINE_TWIN = f"nerf_tuned_samples_128_after_{SAMPLES_SWITCH}"
+BASELINE_UNSWITCHED = Variant(BASELINE.name, BASELINE.method, (("hi.sampler.switch_step", 0),),
+                              "the baseline without a sampler switch")
 
 
 def _hi_window_study(budget_s: float) -> Study:
@@ -95,7 +98,7 @@ def _hi_window_study(budget_s: float) -> Study:
                   _window(full=8) + _SAMPLES_64,
                   f"`full_8` (fern_4view's default) for Hi's first {SAMPLES_SWITCH} steps, then "
                   "8 of 64 over the whole ray and the rest in r = 0.3"),
-          BASELINE,
+          BASELINE_UNSWITCHED,
           Variant(f"nerf_tuned_dense_eval_{DENSE_EVAL_AFTER}", "nerf_tuned", _BASELINE_DENSE_EVAL,
                   f"the baseline, trained as it is; once it has trained {DENSE_EVAL_AFTER} "
                   "steps, its held-out views are rendered with twice its 64 samples (the "

@@ -107,9 +107,9 @@ def _family_verdicts(study_name: str, variant: str, results: str, reference: str
 def _judged(study: Study) -> list:
   """[(variant, the variant it may replace)]: each variant of the
   reference's method against the reference, and each variant of another
-  method against that method's own unchanged variant where the study has one
+  method against the variant named after that method where the study has one
   (a baseline's same chance is judged as the baseline's default)."""
-  plain = {v.method: v.name for v in study.variants if v.name == v.method and not v.overrides}
+  plain = {v.method: v.name for v in study.variants if v.name == v.method}
   plain[study.variants[0].method] = study.reference
   return [(v.name, plain[v.method]) for v in study.variants
           if v.method in plain and v.name != plain[v.method]]
