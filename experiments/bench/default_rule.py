@@ -105,14 +105,16 @@ def _family_verdicts(study_name: str, variant: str, results: str, reference: str
 
 
 def _judged(study: Study) -> list:
-  """[(variant, the variant it may replace)]: each variant of the
-  reference's method against the reference, and each variant of another
-  method against the variant named after that method where the study has one
-  (a baseline's same chance is judged as the baseline's default)."""
-  plain = {v.method: v.name for v in study.variants if v.name == v.method}
-  plain[study.variants[0].method] = study.reference
-  return [(v.name, plain[v.method]) for v in study.variants
-          if v.method in plain and v.name != plain[v.method]]
+  """[(variant, the variant it may replace)]: each variant against the one
+  it is checked against (identity.reference_of: the study's reference for
+  its method's variants, the variant named after another method for that
+  method's; a baseline's same chance is judged as the baseline's default)."""
+  out = []
+  for v in study.variants:
+    ref = identity.reference_of(study, v)
+    if ref is not None and ref is not v:
+      out.append((v.name, ref.name))
+  return out
 
 
 def by_kind(study: Study, recs) -> dict:

@@ -43,12 +43,12 @@ def read(study_name: str, root: str = ROOT) -> dict:
 
 def reference_of(study, variant):
   """The variant `variant` is checked against: the study's reference for a
-  variant of its method; for another method's, that method as it is (the
-  variant named after it, with no overrides); None where the study has none."""
+  variant of its method; for another method's, the variant named after that
+  method; None where the study has none."""
   ref = next(v for v in study.variants if v.name == study.reference)
   if variant.method == ref.method:
     return ref
-  return next((v for v in study.variants if v.name == variant.method and not v.overrides), None)
+  return next((v for v in study.variants if v.name == variant.method), None)
 
 
 def runs(study, names=()) -> list:
