@@ -483,12 +483,34 @@ def test_halo_doubles_hi_samples_after_its_switch_where_it_has_fewer_than_the_ba
   assert configure.load("configs/blender.py:lego_8view", "halo").hi.sampler.switch_step == 0
   assert configure.load("configs/blender.py:lego_8view_cpu", "halo_auto") \
       .hi.sampler.switch_step == halo.SWITCH_STEP
-  # the other kinds, and the baselines: none
-  for spec, name in (("configs/blender.py:lego_8view_cpu", "nerf_tuned"),
-                     ("configs/llff.py:fern_4view_cpu", "halo"),
+  # the other kinds: none
+  for spec, name in (("configs/llff.py:fern_4view_cpu", "halo"),
                      ("configs/dnerf.py:hook_cpu", "halo")):
     assert configure.load(spec, name).hi.sampler.switch_step == 0, (spec, name)
   # an override wins over the rule
   off = configure.load("configs/blender.py:lego_8view_cpu", "halo",
                        overrides={"hi.sampler.switch_step": 0})
   assert off.hi.sampler.switch_step == 0
+
+
+def test_the_baseline_takes_the_same_switch_where_halo_has_it():
+  """nerf_tuned doubles its samples at HALO's switch step on the scenes where
+  HALO does (360-degree, CPU sizes), from its own 64 to 128: the twin of the
+  hi_window study, which the study's records are adopted as."""
+  from halo_jax.methods import halo
+  from experiments.bench import budget_studies
+  for spec in ("configs/blender.py:lego_8view_cpu", "configs/procedural.py:spheres_8view_cpu"):
+    s = configure.load(spec, "nerf_tuned").hi.sampler
+    assert (s.kind, s.num_samples, s.switch_step, s.switch_samples) == \
+        ("stratified", 64, halo.SWITCH_STEP, 128), spec
+  # the twin's overrides change nothing in the baseline's config now
+  twin = next(v for v in budget_studies.STUDIES["hi_window_960"].variants
+              if v.name == budget_studies.BASELINE_TWIN)
+  spec = "configs/procedural.py:spheres_8view_cpu"
+  assert configure.load(spec, "nerf_tuned", overrides=dict(twin.overrides)).to_dict() == \
+      configure.load(spec, "nerf_tuned").to_dict()
+  for spec, name in (("configs/blender.py:lego_8view", "nerf_tuned"),      # paper sizes
+                     ("configs/llff.py:fern_4view_cpu", "nerf_tuned"),
+                     ("configs/dnerf.py:hook_cpu", "nerf_tuned"),
+                     ("configs/blender.py:lego_8view_cpu", "nerf_paper")):
+    assert configure.load(spec, name).hi.sampler.switch_step == 0, (spec, name)

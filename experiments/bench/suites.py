@@ -182,7 +182,10 @@ SMOKE = Suite(
                ("ray.model.width", 32), ("lo.batch_rays", 128), ("hi.batch_rays", 128),
                ("ray.batch_rays", 128), ("ray.bank_rays", 1024), ("hi.empty.bank_rays", 1024),
                ("lo.sampler.num_samples", 8), ("hi.sampler.num_samples", 8),
-               ("baseline.num_samples", 8)),
+               ("baseline.num_samples", 8),
+               # its seconds are thousands of tiny steps, past a sampler switch
+               # whose steps the step table has no entry for
+               ("hi.sampler.switch_step", 0)),
     scenes=(Scene("spheres", "configs/procedural.py:spheres_8view_cpu", 1,
                   methods=("nerf_tuned", "halo"), validation="val"),))
 
