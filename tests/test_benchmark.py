@@ -189,3 +189,19 @@ def test_a_record_short_of_a_switch_added_since_is_the_same_run(tmp_path):
                   {"resolved_config": json.loads(past.to_json_best_effort())})
   # a switch of another size, unreached, is no switch either
   assert same(frozen.replaced(now, {"hi.sampler.switch_samples": 128}), record)
+
+
+def test_no_switch_is_no_switch_whatever_its_other_fields_say(tmp_path):
+  """A study's variant that turns a default switch off (switch_step 0) is the
+  run recorded before the switch was a default, though the method now sets
+  switch_samples too; a run past a switch of another size is not."""
+  scene = next(s for s in suites.BUDGET_960.scenes if s.name == "spheres")
+  now = benchmark.configure(suites.BUDGET_960, scene, "nerf_tuned", 0, "budget", str(tmp_path))
+  assert (now.hi.sampler.switch_step, now.hi.sampler.switch_samples) == (2000, 128)
+  assert protocol.effective(now).hi.budget_steps > 2000
+  off = frozen.replaced(now, {"hi.sampler.switch_step": 0})
+  before = frozen.replaced(off, {"hi.sampler.switch_samples": 64})
+  same = benchmark._same_config  # pylint: disable=protected-access
+  assert same(off, {"resolved_config": json.loads(before.to_json_best_effort())})
+  assert not same(now, {"resolved_config": json.loads(frozen.replaced(
+      now, {"hi.sampler.switch_samples": 64}).to_json_best_effort())})

@@ -42,4 +42,11 @@ def test_the_section_reports_both_margins_and_the_twins_verdict(tmp_path):
       "with it" in page
   # the rule per geometry: a gain on every sphere scene, a 1-dB loss on fern
   assert "ndc: fails: fern_4view -1.00; sphere: passes." in page
+  assert "adopted" not in page
+  # once the baseline's default is the switch, its suite runs are the twin's
+  twin_path = f"ablations/hi_window_960/{scenes[0]}/{budget_studies.BASELINE_TWIN}/seed0.json"
+  runs[scenes[0]]["nerf_tuned"] = [dict(_rec("nerf_tuned", 0, 21.5), adopted_from={
+      "path": twin_path})]
+  page = "\n".join(equal_chance.section(runs, str(tmp_path), 960.0))
+  assert page.endswith(f"the switch's runs, adopted (its default on {scenes[0]}).\n")
   assert equal_chance.section(runs, os.fspath(tmp_path / "none"), 960.0) == []

@@ -36,17 +36,18 @@ def _unreached_switches_off(fields: dict) -> dict:
   set to the base config's (none): a stage that trains no more steps than its
   `sampler.switch_step` computes exactly what it computes without the switch
   (halo_jax/sampler_switch.py), so a default switch that a short run does not
-  reach leaves that run's record standing."""
+  reach leaves that run's record standing. A switch_step of 0 is no switch,
+  whatever the other switch fields say."""
   base = _defaults()
   out = dict(fields)
   for key, switch in fields.items():
-    if not key.endswith(".sampler.switch_step") or not switch:
+    if not key.endswith(".sampler.switch_step"):
       continue
     stage = key[:-len(".sampler.switch_step")]
     # the stage's last step, as stages/budget.last_step counts it
     steps = min([n for n in (fields.get(f"{stage}.{f}", 0) for f in
                              ("steps", "stop_at_step", "budget_steps")) if n] or [0])
-    if steps and steps <= switch:
+    if not switch or (steps and steps <= switch):
       for field in ("switch_step", "switch_samples", "switch_kind"):
         dotted = f"{stage}.sampler.{field}"
         if dotted in base:

@@ -51,6 +51,10 @@ def section(runs, results: str, budget_s: float) -> list:
                                       reference=UNSWITCHED, scenes=s)
               for k, s in default_rule.by_kind(study, recs).items()}
   both = np.asarray([(h - b, h - t) for _, _, h, b, t in table])
+  adopted = sorted({s for s, by in runs.items() for r in by.get(UNSWITCHED, [])
+                    if budget_studies.BASELINE_TWIN in (r.get("adopted_from") or {}).get("path", "")})
+  now = (f" The suite's {UNSWITCHED} runs above are the switch's runs, adopted (its default on "
+         f"{', '.join(adopted)})." if adopted else "")
   return [f"### At equal chance: {UNSWITCHED} with the same switch", "",
           f"HALO's Hi takes twice its samples once it has trained "
           f"{budget_studies.SAMPLES_SWITCH} steps. `{budget_studies.BASELINE_TWIN}` gives "
@@ -66,4 +70,4 @@ def section(runs, results: str, budget_s: float) -> list:
               f"{k} {np.mean([d for d, _ in v]):+.2f} / {np.mean([e for _, e in v]):+.2f} "
               f"({len(v)})" for k, v in sorted(kinds.items())) + ". The switch as the "
           "baseline's default, by the rule (docs/validation.md) per scene geometry: "
-          + "; ".join(f"{k}: {v}" for k, v in sorted(verdicts.items())) + ".", ""]
+          + "; ".join(f"{k}: {v}" for k, v in sorted(verdicts.items())) + "." + now, ""]
