@@ -59,8 +59,11 @@ def main(argv):
     seconds = time.perf_counter() - start
   finally:
     shutil.rmtree(clone, ignore_errors=True)
-  last = [l for l in done.stdout.strip().splitlines() if l.strip()][-1:]
-  text = "\n".join([header] + last + [f"real\t{int(seconds // 60)}m{seconds % 60:.3f}s"]) + "\n"
+  out = [l for l in done.stdout.strip().splitlines() if l.strip()]
+  # which tests failed: pytest's short summary names them, one line each
+  failed = [l for l in out if l.startswith(("FAILED ", "ERROR "))]
+  text = "\n".join([header] + failed + out[-1:]
+                    + [f"real\t{int(seconds // 60)}m{seconds % 60:.3f}s"]) + "\n"
   path = os.path.join(ci_records.FOLDER, f"{commit}.txt")
   ci_records.parse(text, path)  # a run whose summary is missing fails here, not in the README
   with open(path, "w") as f:

@@ -40,3 +40,12 @@ def test_a_duration_rounds_to_whole_seconds_before_minutes():
   assert ci_records.minutes(1439.6) == "24 min 0 s"
   assert ci_records.minutes(1366.4) == "22 min 46 s"
   assert ci_records.minutes(59.5) == "1 min 0 s"
+
+
+def test_a_record_that_names_its_failed_tests_still_parses():
+  """ci_record.py keeps pytest's FAILED lines before the summary."""
+  lines = TEXT.splitlines()
+  named = "\n".join([lines[0], "FAILED tests/test_x.py::test_y - AssertionError: 1 == 2",
+                     *lines[1:]]) + "\n"
+  r = ci_records.parse(named, "x.txt")
+  assert r.counts == {"passed": 650, "skipped": 16, "failed": 1} and r.tests_s == 545.5
