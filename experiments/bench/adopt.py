@@ -112,15 +112,14 @@ def identical_study_run(c, scene, method, seed, results, table=None, mine_fp=Non
   rescored) with `c`'s resolved config by code that computes what this code
   does, or None: the other way round from identical_suite_run, a variant a
   study measured that has since become the default is the suite's run."""
-  runs = []
+  mine, runs = _comparable(json.loads(c.to_json_best_effort())), []
   for path in sorted(glob.glob(os.path.join(results, "ablations", "*", scene.name, "*",
                                             f"seed{seed}.json"))):
     with open(path) as f:
       record = json.load(f)
     if (record.get("method") == method and not record.get("adopted_from")
         and not record.get("rescored_from") and "resolved_config" in record
-        and _same_config(_comparable(json.loads(c.to_json_best_effort())),
-                         _comparable(record["resolved_config"]))):
+        and _same_config(mine, _comparable(record["resolved_config"]))):
       runs.append((path, record))
   return _vouched(runs, scene, method, table, mine_fp)
 
