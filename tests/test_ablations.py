@@ -10,7 +10,7 @@ import pytest
 from halo_jax import frozen, protocol  # pylint: disable=g-import-not-at-top
 
 REPO = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..")
-from experiments.bench import ablations, adopt  # pylint: disable=g-import-not-at-top
+from experiments.bench import ablations, adopt, study_records  # pylint: disable=g-import-not-at-top
 
 
 def _write(path, rec):
@@ -208,8 +208,10 @@ def test_a_suite_run_that_a_study_made_adopts_the_studys_record(tmp_path, monkey
   git = {"commit": "abc1234", "code_tree": "tree_a", "code_dirty": False}
   record = {"psnr": 23.9, "ssim": 0.9, "lpips": 0.1, "num_views": 24, "method": "nerf_tuned",
             "stages": {"hi": {"psnr": 23.9, "step": 2600}}, "heldout_learned": {"hi": "learned"},
-            "provenance": {"git": git}, "wall_s": 900.0, "study": "s", "variant": "twin",
-            "overrides": [], "split": "val", "stop_at_step": {"hi": 0},
+            "provenance": {"git": git}, "wall_s": 900.0,
+            # the fields ablations._write adds
+            **study_records.study_fields("s", ablations.Variant("twin", "nerf_tuned", (), ""),
+                                         c, ("hi",)),
             "resolved_config": json.loads(c.to_json_best_effort())}
   path = os.path.join(results, "ablations", "s", "spheres", "twin", "seed0.json")
   _write(path, record)
@@ -230,7 +232,7 @@ def test_a_suite_run_that_a_study_made_adopts_the_studys_record(tmp_path, monkey
   monkeypatch.setattr(adopt, "running_fingerprint", lambda *a, **k: "fp_a")
   made = bench._study_run(c, scene, "nerf_tuned", 0, "budget", results)
   assert made["adopted_from"]["path"] == "ablations/s/spheres/twin/seed0.json"
-  assert not set(bench.STUDY_FIELDS) & set(made) and made["psnr"] == 23.9
+  assert not set(study_records.FIELDS) & set(made) and made["psnr"] == 23.9
   assert made["validation"] == {"split": "val", "num_views": 24, "stages": {
       "hi": {"psnr": 23.9, "ssim": 0.9, "learned": "learned"}}}
   assert bench._study_run(c, scene, "nerf_tuned", 0, "steps", results) is None
@@ -314,6 +316,12 @@ def test_identity_compares_each_variant_of_the_method_with_the_reference():
       ["nerf_tuned", "nerf_tuned_late"]
   figs = {"a/nerf_tuned": {"psnr": [15.0]}, "a/nerf_tuned_late": {"psnr": [15.0]}}
   assert identity.verdicts(study, figs) == {"nerf_tuned_late": {"a": True}}
+  # a variant that names the one it adds to is checked against that one
+  more = Variant("new_more", "halo", (("hi.sampler.dense_eval_after", 9),), against="new")
+  study = dataclasses.replace(study, variants=study.variants + (more,))
+  assert identity.reference_of(study, more).name == "new"
+  assert [v.name for s, v in identity.runs(study, ["new_more"]) if s.name == "a"] == \
+      ["new", "new_more"]
 
 
 def test_every_budget_study_belongs_to_a_family_of_the_budget_study():

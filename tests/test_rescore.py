@@ -53,3 +53,24 @@ def test_a_run_scored_again_gives_its_record_and_a_render_field_moves_it(tmp_pat
   assert dense["stages"]["lo"] == record["stages"]["lo"]   # what trained is the reference's
   with pytest.raises(rescore.NotRenderOnly, match="not the record's run"):
     rescore.rescored(dict(record, psnr=record["psnr"] + 1.0), workdir, (), False)
+
+
+def test_a_variant_is_rendered_on_the_run_of_its_training_fields():
+  from experiments.bench.study_types import Variant  # pylint: disable=import-outside-toplevel
+  switched = (("hi.sampler.switch_step", 2000), ("hi.sampler.switch_samples", 64))
+  dense = Variant("d", "halo", switched + (("hi.sampler.dense_eval_after", 2000),
+                                           ("hi.sampler.dense_eval_samples", 128)))
+  trained = rescore.as_trained(dense)
+  assert trained.overrides == switched and trained.method == "halo"
+  plain = Variant("p", "halo", switched)
+  assert rescore.as_trained(plain) is plain
+
+
+def test_a_suite_record_adopted_from_a_study_is_found_in_the_studys_workdir():
+  scene = LATTICE
+  own = ("/s/budget_960/budget/lattice/nerf_tuned/seed1",)
+  record = {"suite": "budget_960"}
+  assert rescore._workdirs("/s", record, scene, "nerf_tuned", 1) == own  # pylint: disable=protected-access
+  record["adopted_from"] = {"path": "ablations/hi_window_960/lattice/twin/seed1.json"}
+  assert rescore._workdirs("/s", record, scene, "nerf_tuned", 1) == own + (  # pylint: disable=protected-access
+      "/s/ablations/hi_window_960/lattice/twin/seed1",)

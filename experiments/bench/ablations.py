@@ -38,7 +38,7 @@ import traceback
 from absl import flags, logging
 
 from experiments.bench import (adopt, benchmark, code_version, default_rule,
-                               fronts_report, gap_report, git_state, identity, report_common, rescore,
+                               fronts_report, gap_report, git_state, report_common, rescore,
                                run_file, selection, study_records, suites, tool)
 from experiments.bench.paths import REPO
 from experiments.bench.studies import MATCHED_STEPS, STUDIES, Study, Variant  # noqa: F401
@@ -111,10 +111,8 @@ def _write(record, study_name, scene, variant, seed, c, results, start) -> dict:
   """`record` with what names the study's run (its config `c`, started at
   `start`), written to its result file; returns it."""
   record.pop("per_view", None)
-  record.update(study=study_name, scene=scene.name, config=scene.config, variant=variant.name,
-                method=variant.method, overrides=[list(o) for o in variant.overrides],
-                split=c.data.test_split, seed=seed,
-                stop_at_step={n: c[n].stop_at_step for n in record["stages"]},
+  record.update(study_records.study_fields(study_name, variant, c, record["stages"]),
+                scene=scene.name, config=scene.config, method=variant.method, seed=seed,
                 run_seconds=round(time.time() - start, 1))
   run_file.write_json(result_path(results, study_name, scene, variant, seed), record)
   return record
@@ -137,11 +135,12 @@ def run_one(study_name, study, scene, variant, seed, results, scratch) -> dict:
 
 def rescore_one(study_name, study, scene, variant, seed, results, scratches) -> dict:
   """The record of a variant that changes only how a run renders
-  (rescore.py): its reference's suite run, scored with its fields; writes it.
+  (rescore.py): the suite run it trains (the variant without those fields),
+  scored with its fields; writes it.
   rescore.NotRenderOnly when it cannot be."""
-  ref = identity.reference_of(study, variant)
-  if ref is None or ref is variant:
-    raise rescore.NotRenderOnly("no reference to score it on")
+  ref = rescore.as_trained(variant)
+  if ref is variant:
+    raise rescore.NotRenderOnly("it changes no field of how a run renders")
   c = configure(study, scene, variant, seed, "/tmp/halo_rescore", results)
   rc = configure(study, scene, ref, seed, "/tmp/halo_rescore", results)
   fields = rescore.render_fields(rc, c)

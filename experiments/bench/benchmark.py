@@ -158,20 +158,18 @@ def run_one(suite_name, suite, scene, method, seed, mode, results, scratch) -> d
   return record
 
 
-STUDY_FIELDS = ("study", "variant", "overrides", "split", "stop_at_step")
-
-
 def _study_run(c, scene, method, seed, mode, results):
   """A study's run of this suite run's resolved config, made by code that
   computes what this code does (adopt.identical_study_run), as the suite's
   record with `adopted_from`; or None where there is none, or where it lacks
   a figure the suite's record holds (fronts, or validation scores it cannot
   give without its workdir): that run is trained."""
-  from experiments.bench import adopt  # pylint: disable=import-outside-toplevel  (it reads runs)
+  from experiments.bench import (  # pylint: disable=import-outside-toplevel  (they read runs)
+      adopt, study_records)
   same = adopt.identical_study_run(c, scene, method, seed, results) if mode == "budget" else None
   if same is None or (c.eval.front_s and not same[1].get("front")):
     return None
-  record = {k: v for k, v in same[1].items() if k not in STUDY_FIELDS}
+  record = {k: v for k, v in same[1].items() if k not in study_records.FIELDS}
   if scene.validation:
     record["validation"] = adopt.validation_from(record, scene.validation)
     if record["validation"] is None:
@@ -245,7 +243,8 @@ def _same_config(config, record) -> bool:
   render fields a rescored record was scored with (rescore.py) laid over.
   A record older than resolved configs in records cannot be compared, and
   stands (its code's fingerprint is what vouches for it)."""
-  from experiments.bench import adopt  # pylint: disable=import-outside-toplevel  (it reads runs)
+  from experiments.bench import (  # pylint: disable=import-outside-toplevel  (they read runs)
+      adopt, study_records)
   if "resolved_config" not in record:
     return True
   theirs = json.loads(json.dumps(record["resolved_config"]))

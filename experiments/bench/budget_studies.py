@@ -50,6 +50,13 @@ SAMPLES_SWITCH = DENSE_EVAL_AFTER
 _SAMPLES_64 = (("hi.sampler.switch_step", SAMPLES_SWITCH), ("hi.sampler.switch_samples", 64))
 _BASELINE_SAMPLES_128 = (("hi.sampler.switch_step", SAMPLES_SWITCH),
                          ("hi.sampler.switch_samples", 128))
+# Past the switch, held-out renders with the samples the baseline's twin trains
+# and renders with (128 stratified over the whole ray); and the twin given the
+# same: twice the samples it trains with.
+_SWITCHED_DENSE_EVAL = _SAMPLES_64 + (("hi.sampler.dense_eval_after", SAMPLES_SWITCH),
+                                      ("hi.sampler.dense_eval_samples", 128))
+_BASELINE_SWITCHED_DENSE_EVAL = _BASELINE_SAMPLES_128 + (
+    ("hi.sampler.dense_eval_after", SAMPLES_SWITCH), ("hi.sampler.dense_eval_samples", 256))
 # the baseline given the same chance as HALO's switch (equal_chance.py), and the
 # baseline without it: the study's `halo` has no switch either (_window)
 BASELINE_TWIN = f"nerf_tuned_samples_128_after_{SAMPLES_SWITCH}"
@@ -98,6 +105,12 @@ def _hi_window_study(budget_s: float) -> Study:
                   _window(full=8) + _SAMPLES_64,
                   f"`full_8` (fern_4view's default) for Hi's first {SAMPLES_SWITCH} steps, then "
                   "8 of 64 over the whole ray and the rest in r = 0.3"),
+          Variant(f"samples_64_after_{SAMPLES_SWITCH}+dense_eval_128", "halo",
+                  _window() + _SWITCHED_DENSE_EVAL,
+                  f"trained as `samples_64_after_{SAMPLES_SWITCH}`; once Hi has trained "
+                  f"{SAMPLES_SWITCH} steps, its held-out views are rendered with 128 samples "
+                  "stratified over the whole ray (what the baseline's twin trains and renders "
+                  "with)", against=f"samples_64_after_{SAMPLES_SWITCH}"),
           BASELINE_UNSWITCHED,
           Variant(f"nerf_tuned_dense_eval_{DENSE_EVAL_AFTER}", "nerf_tuned", _BASELINE_DENSE_EVAL,
                   f"the baseline, trained as it is; once it has trained {DENSE_EVAL_AFTER} "
@@ -106,6 +119,11 @@ def _hi_window_study(budget_s: float) -> Study:
           Variant(BASELINE_TWIN, "nerf_tuned", _BASELINE_SAMPLES_128,
                   f"the baseline with twice its 64 samples once it has trained "
                   f"{SAMPLES_SWITCH} steps (the same chance as HALO's switch)"),
+          Variant(f"{BASELINE_TWIN}+dense_eval_256", "nerf_tuned",
+                  _BASELINE_SWITCHED_DENSE_EVAL,
+                  f"trained as `{BASELINE_TWIN}`; once it has trained {SAMPLES_SWITCH} steps, its "
+                  "held-out views are rendered with 256 samples (twice those it trains with: "
+                  "the same chance)", against=BASELINE_TWIN),
       ),
       reference="halo", seeds=2, budget="time", front=False, budget_s=budget_s)
 

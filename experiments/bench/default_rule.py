@@ -106,9 +106,10 @@ def _family_verdicts(study_name: str, variant: str, results: str, reference: str
 
 def _judged(study: Study) -> list:
   """[(variant, the variant it may replace)]: each variant against the one
-  it is checked against (identity.reference_of: the study's reference for
-  its method's variants, the variant named after another method for that
-  method's; a baseline's same chance is judged as the baseline's default)."""
+  it is checked against (identity.reference_of: the variant it names, else
+  the study's reference for its method's variants and the variant named
+  after another method for that method's; a baseline's same chance is
+  judged as the baseline's default)."""
   out = []
   for v in study.variants:
     ref = identity.reference_of(study, v)
@@ -148,8 +149,8 @@ def lines(study_name: str, study: Study, recs, results: str) -> list:
     rows.append(f"| `{name}` | `{ref}` | {here} |" + (f" {per_kind} |" if len(kinds) > 1 else "")
                 + (f" {across} |" if family else ""))
   return ["", "## Against the default rule", "",
-          f"A variant may replace the default it changes (`{study.reference}`, or its own "
-          f"method's unchanged variant) only if, on at least {MIN_SEEDS} seeds of "
+          f"A variant may replace the default it changes (`{study.reference}`, its own "
+          f"method's unchanged variant, or the variant it adds to: `against`) only if, on at least {MIN_SEEDS} seeds of "
           f"every scene of the study, its mean loss on no scene exceeds {MAX_LOSS_DB} dB "
           "and its mean over the scenes (each weighs the same) is a gain "
           "(docs/validation.md)." + (

@@ -42,9 +42,12 @@ def read(study_name: str, root: str = ROOT) -> dict:
 
 
 def reference_of(study, variant):
-  """The variant `variant` is checked against: the study's reference for a
-  variant of its method; for another method's, the variant named after that
-  method; None where the study has none."""
+  """The variant `variant` is checked against: the one it names
+  (`against`); else the study's reference for a variant of its method, and
+  for another method's the variant named after that method; None where the
+  study has none."""
+  if variant.against:
+    return next(v for v in study.variants if v.name == variant.against)
   ref = next(v for v in study.variants if v.name == study.reference)
   if variant.method == ref.method:
     return ref

@@ -15,6 +15,7 @@ workdir).
 
   python -m experiments.ablations --study=hi_window_960 --rescore_from=/tmp/a,/tmp/b
 """
+import dataclasses
 import json
 import os
 import tempfile
@@ -26,6 +27,15 @@ from experiments.bench import adopt, benchmark
 # Stage fields that change how a trained stage renders its held-out views,
 # and nothing that training reads.
 RENDER_ONLY = ("sampler.dense_eval_after", "sampler.dense_eval_samples")
+
+
+def as_trained(variant):
+  """`variant` without its RENDER_ONLY overrides: the variant whose trained
+  run it renders (itself where it has none)."""
+  kept = tuple(o for o in variant.overrides
+               if not any(o[0].endswith("." + f) for f in RENDER_ONLY))
+  return variant if kept == tuple(variant.overrides) else dataclasses.replace(
+      variant, name=f"{variant.name} as trained", overrides=kept)
 
 
 class NotRenderOnly(ValueError):
@@ -60,13 +70,24 @@ def reference_run(ref_config, scene, method, seed, results, scratches):
     raise NotRenderOnly(f"no suite run of {scene.name}/{method}/seed{seed} has the "
                         "reference's config")
   for path, record in runs:
-    for scratch in scratches:
-      workdir = benchmark.workdir_of(scratch, record["suite"], "budget", scene, method, seed)
+    places = (w for scratch in scratches for w in _workdirs(scratch, record, scene, method, seed))
+    for workdir in places:
       stored = os.path.join(workdir, ref_config.final_stage, "final", "config.json")
       if os.path.exists(stored) and _trained_as(stored, record):
         return path, record, workdir
   raise NotRenderOnly(f"{scene.name}/{method}/seed{seed}: no workdir of its suite run under "
                       f"{', '.join(scratches)}")
+
+
+def _workdirs(scratch: str, record: dict, scene, method: str, seed: int) -> tuple:
+  """Where under `scratch` the suite run of `record` trained: its own
+  workdir, or, for a record adopted from a study's run
+  (adopt.identical_study_run), that run's (ablations.py's layout)."""
+  own = benchmark.workdir_of(scratch, record["suite"], "budget", scene, method, seed)
+  adopted = (record.get("adopted_from") or {}).get("path", "")
+  if adopted.startswith("ablations" + os.sep):
+    return own, os.path.join(scratch, os.path.splitext(adopted)[0])
+  return (own,)
 
 
 def _trained_as(stored_path: str, record: dict) -> bool:

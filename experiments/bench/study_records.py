@@ -2,6 +2,19 @@
 import json
 import os
 
+# What a study's record adds to its run's record: the fields that name the
+# study's run, and the stops it set (a suite run that adopts it drops them).
+FIELDS = ("study", "variant", "overrides", "split", "stop_at_step")
+
+
+def study_fields(study_name: str, variant, c, stages) -> dict:
+  """FIELDS of `variant`'s run in `study_name`, with config `c`, whose record
+  has `stages`."""
+  out = dict(study=study_name, variant=variant.name,
+             overrides=[list(o) for o in variant.overrides], split=c.data.test_split,
+             stop_at_step={n: c[n].stop_at_step for n in stages})
+  return out
+
 
 def read(results: str, study_name: str) -> dict:
   """{(scene, variant): [record, ...]} of a study's finished runs."""

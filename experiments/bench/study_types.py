@@ -13,6 +13,9 @@ class Variant:
   method: str
   overrides: Tuple[Tuple[str, object], ...] = ()
   note: str = ""
+  # the variant it is judged against, where that is not the default
+  # (identity.reference_of): the one it adds to
+  against: str = ""
 
 
 @dataclasses.dataclass(frozen=True)

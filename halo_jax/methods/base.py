@@ -66,6 +66,19 @@ def every_kind(table: Table) -> Dict[str, Table]:
   return {k: dict(table) for k in KINDS}
 
 
+def samples_doubled_after(step: int) -> Dict[str, Derived]:
+  """Table entries that double Hi-NeRF's samples once it has trained `step`
+  steps, at the CPU sizes only: there a method's Hi samples too sparsely for
+  a long run, and a short one never reaches the switch. The paper sizes keep
+  their config's switch. Written after the table's num_samples, which it
+  doubles."""
+  return {
+      "hi.sampler.switch_step": Derived(
+          lambda c, scene: step if c.sizing == "cpu" else c.hi.sampler.switch_step),
+      "hi.sampler.switch_samples": Derived(lambda c, scene: 2 * c.hi.sampler.num_samples),
+  }
+
+
 def on_top_of(first: Method, tables: Mapping[str, Table]) -> Dict[str, Table]:
   """`first`'s tables with `tables` (kind -> table) written after them: a
   field in both takes the later setting."""

@@ -30,13 +30,7 @@ TABLE = {
 }
 
 
-# after num_samples, which it doubles
-SPHERE = {
-    **TABLE,
-    "hi.sampler.switch_step": base.Derived(
-        lambda c, scene: halo.SWITCH_STEP if c.sizing == "cpu" else c.hi.sampler.switch_step),
-    "hi.sampler.switch_samples": base.Derived(lambda c, scene: 2 * c.hi.sampler.num_samples),
-}
+SPHERE = {**TABLE, **base.samples_doubled_after(halo.SWITCH_STEP)}
 
 
 METHOD = base.Method("NeRF, one MLP, stratified samples, softplus density, noise 1.0",
