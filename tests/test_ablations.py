@@ -8,6 +8,7 @@ import sys
 import pytest
 
 from halo_jax import frozen, protocol  # pylint: disable=g-import-not-at-top
+from halo_jax.configure import finish  # pylint: disable=g-import-not-at-top
 
 REPO = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..")
 from experiments.bench import ablations, adopt, study_records  # pylint: disable=g-import-not-at-top
@@ -220,12 +221,22 @@ def test_a_suite_run_that_a_study_made_adopts_the_studys_record(tmp_path, monkey
       cfg, scene, method, seed, results, table=table, mine_fp=fp)
   assert find()[0] == path
   assert find(seed=1) is None and find(method="halo") is None and find(fp="fp_b") is None
-  for copied in ("adopted_from", "rescored_from"):   # not a run of its own
-    _write(path, dict(record, **{copied: {"path": "x"}}))
-    assert find() is None
+  _write(path, dict(record, adopted_from={"path": "x"}))   # not a run of its own
+  assert find() is None
   other = frozen.thaw(c)
   other.hi.lr_init *= 2
   assert find(cfg=other) is None
+  # a rescored run is its reference's training with the render fields it names
+  # (from its first step: dense renders a run stops short of change nothing)
+  dense = frozen.thaw(c)
+  dense.hi.sampler.update(dense_eval_after=1, dense_eval_samples=512)
+  _write(path, dict(record, rescored_from={"path": "x", "fields": [
+      ["hi.sampler.dense_eval_after", 1], ["hi.sampler.dense_eval_samples", 512]]}))
+  assert find() is None and find(cfg=finish(dense))[0] == path
+  late = frozen.thaw(c)
+  late.hi.sampler.update(dense_eval_after=10 ** 6, dense_eval_samples=512)
+  _write(path, record)
+  assert find(cfg=finish(late))[0] == path
   # the suite's record: the study's names dropped, the validation scores derived
   _write(path, record)
   monkeypatch.setattr(adopt.code_version, "load", lambda: table)

@@ -49,10 +49,10 @@ def test_probe_renders_the_runs_as_they_scored_themselves(tmp_path):
   from experiments.bench import benchmark, suites
   results, scratch = str(tmp_path / "results"), str(tmp_path / "scratch")
   scene = suites.SMOKE.scenes[0]
-  assert budget_probe.probe_run("smoke", "budget", scene, 0, results, scratch) is None
+  assert budget_probe.probe_run("smoke", "budget", scene, 0, results, [scratch]) is None
   for method in ("halo", "nerf_tuned"):
     benchmark.run_one("smoke", suites.SMOKE, scene, method, 0, "budget", results, scratch)
-  out = budget_probe.probe_run("smoke", "budget", scene, 0, results, scratch)
+  out = budget_probe.probe_run("smoke", "budget", scene, 0, results, [scratch])
   with open(budget_probe.probe_path(results, "smoke", scene.name, 0)) as f:
     assert json.load(f)["psnr"] == out["psnr"]
   # the probe's renders as trained are the runs' own final evaluations
@@ -78,7 +78,7 @@ def test_probe_renders_the_runs_as_they_scored_themselves(tmp_path):
   with open(path, "w") as f:
     json.dump(record, f)
   with pytest.raises(ValueError, match="not that run's workdir"):
-    budget_probe.probe_run("smoke", "budget", scene, 0, results, scratch)
+    budget_probe.probe_run("smoke", "budget", scene, 0, results, [scratch])
   assert os.path.exists(budget_probe.probe_path(results, "smoke", scene.name, 0))
 
 

@@ -503,12 +503,21 @@ def test_the_baseline_takes_the_same_switch_where_halo_has_it():
     s = configure.load(spec, "nerf_tuned").hi.sampler
     assert (s.kind, s.num_samples, s.switch_step, s.switch_samples) == \
         ("stratified", 64, halo.SWITCH_STEP, 128), spec
-  # the twin's overrides change nothing in the baseline's config now
-  twin = next(v for v in budget_studies.STUDIES["hi_window_960"].variants
-              if v.name == budget_studies.BASELINE_TWIN)
+  # the variants that passed the rule change nothing in the defaults now: the
+  # twin rendered with 256 samples past the switch, and HALO with 128
+  study = budget_studies.STUDIES["hi_window_960"]
   spec = "configs/procedural.py:spheres_8view_cpu"
-  assert configure.load(spec, "nerf_tuned", overrides=dict(twin.overrides)).to_dict() == \
-      configure.load(spec, "nerf_tuned").to_dict()
+  for method, name in (("nerf_tuned", f"{budget_studies.BASELINE_TWIN}+dense_eval_256"),
+                       ("halo", "samples_64_after_2000+dense_eval_128")):
+    v = next(v for v in study.variants if v.name == name)
+    assert configure.load(spec, method, overrides=dict(v.overrides)).to_dict() == \
+        configure.load(spec, method).to_dict(), name
+    s = configure.load(spec, method).hi.sampler
+    assert (s.dense_eval_after, s.dense_eval_samples) == (
+        halo.SWITCH_STEP, 2 * s.switch_samples), method
+  # no switch, no dense renders
+  off = configure.load(spec, "nerf_tuned", overrides={"hi.sampler.switch_step": 0}).hi.sampler
+  assert off.dense_eval_after == 0
   for spec, name in (("configs/blender.py:lego_8view", "nerf_tuned"),      # paper sizes
                      ("configs/llff.py:fern_4view_cpu", "nerf_tuned"),
                      ("configs/dnerf.py:hook_cpu", "nerf_tuned"),

@@ -15,10 +15,10 @@ def _config(tmp_path, overrides=()):
 
 def test_only_render_fields_may_differ(tmp_path):
   ref = _config(tmp_path)
-  dense = _config(tmp_path, (("hi.sampler.dense_eval_after", 2000),
-                             ("hi.sampler.dense_eval_samples", 128)))
-  assert rescore.render_fields(ref, dense) == (("hi.sampler.dense_eval_after", 2000),
-                                               ("hi.sampler.dense_eval_samples", 128))
+  dense = _config(tmp_path, (("hi.sampler.dense_eval_after", 1000),
+                             ("hi.sampler.dense_eval_samples", 96)))
+  assert rescore.render_fields(ref, dense) == (("hi.sampler.dense_eval_after", 1000),
+                                               ("hi.sampler.dense_eval_samples", 96))
   assert rescore.render_fields(ref, ref) == ()
   with pytest.raises(rescore.NotRenderOnly, match="hi.sampler.num_samples"):
     rescore.render_fields(ref, _config(tmp_path, (("hi.sampler.num_samples", 64),)))
@@ -61,16 +61,17 @@ def test_a_variant_is_rendered_on_the_run_of_its_training_fields():
   dense = Variant("d", "halo", switched + (("hi.sampler.dense_eval_after", 2000),
                                            ("hi.sampler.dense_eval_samples", 128)))
   trained = rescore.as_trained(dense)
-  assert trained.overrides == switched and trained.method == "halo"
+  assert trained.overrides == switched + (("hi.sampler.dense_eval_after", 0),)
+  assert trained.method == "halo"
   plain = Variant("p", "halo", switched)
   assert rescore.as_trained(plain) is plain
 
 
 def test_a_suite_record_adopted_from_a_study_is_found_in_the_studys_workdir():
-  scene = LATTICE
+  from experiments.bench import paths  # pylint: disable=import-outside-toplevel
   own = ("/s/budget_960/budget/lattice/nerf_tuned/seed1",)
   record = {"suite": "budget_960"}
-  assert rescore._workdirs("/s", record, scene, "nerf_tuned", 1) == own  # pylint: disable=protected-access
+  assert paths.workdirs_of("/s", record, "budget", LATTICE, "nerf_tuned", 1) == own
   record["adopted_from"] = {"path": "ablations/hi_window_960/lattice/twin/seed1.json"}
-  assert rescore._workdirs("/s", record, scene, "nerf_tuned", 1) == own + (  # pylint: disable=protected-access
+  assert paths.workdirs_of("/s", record, "budget", LATTICE, "nerf_tuned", 1) == own + (
       "/s/ablations/hi_window_960/lattice/twin/seed1",)

@@ -37,7 +37,8 @@ def _unreached_switches_off(fields: dict) -> dict:
   `sampler.switch_step` computes exactly what it computes without the switch
   (halo_jax/sampler_switch.py), so a default switch that a short run does not
   reach leaves that run's record standing. A switch_step of 0 is no switch,
-  whatever the other switch fields say."""
+  whatever the other switch fields say. The same for dense held-out renders
+  (sampler.dense_eval_after) in a stage that stops short of them."""
   base = _defaults()
   out = dict(fields)
   for key, switch in fields.items():
@@ -48,11 +49,19 @@ def _unreached_switches_off(fields: dict) -> dict:
     steps = min([n for n in (fields.get(f"{stage}.{f}", 0) for f in
                              ("steps", "stop_at_step", "budget_steps")) if n] or [0])
     if not switch or (steps and steps <= switch):
-      for field in ("switch_step", "switch_samples", "switch_kind"):
-        dotted = f"{stage}.sampler.{field}"
-        if dotted in base:
-          out[dotted] = base[dotted]
+      _reset(out, base, stage, ("switch_step", "switch_samples", "switch_kind"))
+    # held-out renders turn dense once the stage has trained dense_eval_after steps
+    after = fields.get(f"{stage}.sampler.dense_eval_after", 0)
+    if not after or (steps and steps < after):
+      _reset(out, base, stage, ("dense_eval_after", "dense_eval_samples"))
   return out
+
+
+def _reset(out: dict, base: dict, stage: str, fields) -> None:
+  for field in fields:
+    dotted = f"{stage}.sampler.{field}"
+    if dotted in base:
+      out[dotted] = base[dotted]
 
 
 @functools.lru_cache(maxsize=1)
@@ -79,6 +88,19 @@ def _same_config(mine: dict, theirs: dict) -> bool:
            if k not in theirs and k.rsplit(".", 1)[-1] not in STATED_FOR_RESOLVE + LABELS}
   return (all(mine.get(k) == v for k, v in theirs.items())
           and all(k in base and base[k] == v for k, v in added.items()))
+
+
+def run_config(record: dict) -> dict:
+  """The resolved config of a record's run: its `resolved_config`, with the
+  render fields a rescored record was scored with (rescore.py) laid over."""
+  out = json.loads(json.dumps(record["resolved_config"]))
+  for dotted, value in (record.get("rescored_from") or {}).get("fields", ()):
+    *path, field = dotted.split(".")
+    node = out
+    for part in path:
+      node = node.setdefault(part, {})
+    node[field] = value
+  return out
 
 
 def same_resolved(mine: dict, theirs: dict) -> bool:
@@ -108,18 +130,20 @@ def identical_suite_run(c, scene, method, seed, results, table=None, mine_fp=Non
 
 
 def identical_study_run(c, scene, method, seed, results, table=None, mine_fp=None):
-  """(path, record) of a finished study run trained (not adopted or
-  rescored) with `c`'s resolved config by code that computes what this code
-  does, or None: the other way round from identical_suite_run, a variant a
-  study measured that has since become the default is the suite's run."""
+  """(path, record) of a finished study run (not adopted) of `c`'s resolved
+  config by code that computes what this code does, or None: the other way
+  round from identical_suite_run, a variant a study measured that has since
+  become the default is the suite's run. A rescored run (rescore.py) is its
+  reference's training scored with the render fields it names: its config
+  is the two together (run_config), and its curve is the reference's renders."""
   mine, runs = _comparable(json.loads(c.to_json_best_effort())), []
   for path in sorted(glob.glob(os.path.join(results, "ablations", "*", scene.name, "*",
                                             f"seed{seed}.json"))):
     with open(path) as f:
       record = json.load(f)
     if (record.get("method") == method and not record.get("adopted_from")
-        and not record.get("rescored_from") and "resolved_config" in record
-        and _same_config(mine, _comparable(record["resolved_config"]))):
+        and "resolved_config" in record
+        and _same_config(mine, _comparable(run_config(record)))):
       runs.append((path, record))
   return _vouched(runs, scene, method, table, mine_fp)
 

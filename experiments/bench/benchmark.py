@@ -243,18 +243,10 @@ def _same_config(config, record) -> bool:
   render fields a rescored record was scored with (rescore.py) laid over.
   A record older than resolved configs in records cannot be compared, and
   stands (its code's fingerprint is what vouches for it)."""
-  from experiments.bench import (  # pylint: disable=import-outside-toplevel  (they read runs)
-      adopt, study_records)
+  from experiments.bench import adopt  # pylint: disable=import-outside-toplevel  (it reads runs)
   if "resolved_config" not in record:
     return True
-  theirs = json.loads(json.dumps(record["resolved_config"]))
-  for dotted, value in (record.get("rescored_from") or {}).get("fields", ()):
-    *path, field = dotted.split(".")
-    node = theirs
-    for part in path:
-      node = node.setdefault(part, {})
-    node[field] = value
-  return adopt.same_resolved(json.loads(config.to_json_best_effort()), theirs)
+  return adopt.same_resolved(json.loads(config.to_json_best_effort()), adopt.run_config(record))
 
 
 

@@ -23,11 +23,13 @@ the nerf_tuned run of the same scene, seed and suite:
 
 Hi − Lo is in the run's record already. Each probe is a file
 results/<suite>/probe/<scene>/seed<k>.json that the budget study's page
-reads; it needs the runs' workdirs (their --scratch), so it runs on the
+reads; it needs the runs' workdirs (their --scratch folders; a suite record adopted
+from a study's run is found in that run's), so it runs on the
 machine that trained them:
 
-  python -m experiments.bench.budget_probe --suite=budget_960 --scratch=/tmp/bud_s0
+  python -m experiments.bench.budget_probe --suite=budget_960 --scratch=/tmp/bud_s0,/tmp/twin
 """
+import json
 import math
 import os
 import sys
@@ -39,7 +41,7 @@ import numpy as np
 from halo_jax import frozen, metrics, progress, raycast, restore, sampler_switch, samplers
 from experiments.bench import git_state
 from experiments.bench import run_file, selection, suites, tool
-from experiments.bench.paths import REPO, result_path, workdir_of
+from experiments.bench.paths import REPO, result_path, workdirs_of
 from experiments.bench.report_common import BASELINE
 from halo_jax.geometry import Geometry
 from halo_jax.stages import base, metrics_log, radiance
@@ -232,15 +234,40 @@ def probe(halo_dir, baseline_dir, halo_record, baseline_record, paths) -> dict:
   return out
 
 
-def probe_run(suite_name, mode, scene, seed, results, scratch):
+def _finished_workdir(scratches, record, mode, scene, method, seed):
+  """The first workdir of the record's run under `scratches` whose Hi-NeRF
+  finished at the record's step (paths.workdirs_of); None where none
+  finished; ValueError where those that did stopped at other steps."""
+  want = record["stages"]["hi"]["step"]
+  finished = [d for scratch in scratches
+              for d in workdirs_of(scratch, record, mode, scene, method, seed)
+              if restore.finished(d, "hi")]
+  for d in finished:
+    if _stopped_at(d) == want:
+      return d
+  if finished:
+    raise ValueError(f"{finished[0]}: Hi-NeRF stopped at step {_stopped_at(finished[0])}, but "
+                     f"its record has {want}; it is not that run's workdir")
+  return None
+
+
+def _stopped_at(workdir) -> int:
+  with open(os.path.join(workdir, "hi", "final", "info.json")) as f:
+    return int(json.load(f)["step"])
+
+
+def probe_run(suite_name, mode, scene, seed, results, scratches):
   """Probes `scene`/seed`seed` of a suite and writes its file; None (nothing
-  written) unless both methods' records and finished workdirs are there."""
+  written) unless both methods' records, and their finished workdirs under
+  one of `scratches`, are there."""
   paths = [result_path(results, suite_name, mode, scene, m, seed) for m in (METHOD, BASELINE)]
-  dirs = [workdir_of(scratch, suite_name, mode, scene, m, seed) for m in (METHOD, BASELINE)]
-  if not all(os.path.exists(p) for p in paths) or not all(restore.finished(d, "hi")
-                                                          for d in dirs):
+  if not all(os.path.exists(p) for p in paths):
     return None
   records = [run_file.read(p) for p in paths]
+  dirs = [_finished_workdir(scratches, r, mode, scene, m, seed)
+          for r, m in zip(records, (METHOD, BASELINE))]
+  if None in dirs:
+    return None
   out = probe(*dirs, *records, paths)
   out.update(scene=scene.name, seed=seed, suite=suite_name,
              runs={m: {"code_tree": r["provenance"]["git"].get("code_tree"),
@@ -259,7 +286,8 @@ def define_flags():
   flags.DEFINE_string("mode", "budget", "The suite's mode.")
   flags.DEFINE_string("results", os.path.join(REPO, "results"),
                       "Where the runs' records are and the probes go.")
-  flags.DEFINE_string("scratch", "/tmp/halo_bench", "The runs' workdirs (benchmark --scratch).")
+  flags.DEFINE_list("scratch", ["/tmp/halo_bench"], "Folders holding the runs' workdirs "
+                    "(benchmark's and ablations.py's --scratch), searched in order.")
   flags.DEFINE_string("only", "", "Probe only 'scene/seed<k>' matching this regex.")
 
 

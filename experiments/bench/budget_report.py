@@ -423,7 +423,8 @@ def write(all_suites, docs, results="") -> str:
                            found)
   if results:
     out += equal_chance.section(runs, results, budgets[-1])
-    out += probe_report.other_scenes_section(results)
+    out += probe_report.other_scenes_section(
+        results, {s: x for s, by in runs.items() for x in [lead(by)] if x is not None and x < 0})
     out += probe_report.dense_eval_section(
         results, budget_studies.STUDIES[f"hi_window_{budgets[-1]:g}"].scenes, budgets[-1])
     out += probe_report.probe_section(probe_report.probes(results), by_budget, hi_minus_lo,

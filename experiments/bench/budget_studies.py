@@ -47,15 +47,19 @@ _BASELINE_DENSE_EVAL = (("hi.sampler.dense_eval_after", DENSE_EVAL_AFTER),
 # reason, identical at 60 and 240 s; its steps past the switch cost their own
 # step-table entry, so at 960 s it trains fewer steps than `halo`.
 SAMPLES_SWITCH = DENSE_EVAL_AFTER
-_SAMPLES_64 = (("hi.sampler.switch_step", SAMPLES_SWITCH), ("hi.sampler.switch_samples", 64))
-_BASELINE_SAMPLES_128 = (("hi.sampler.switch_step", SAMPLES_SWITCH),
-                         ("hi.sampler.switch_samples", 128))
+_SWITCH_64 = (("hi.sampler.switch_step", SAMPLES_SWITCH), ("hi.sampler.switch_samples", 64))
+_BASELINE_SWITCH_128 = (("hi.sampler.switch_step", SAMPLES_SWITCH),
+                        ("hi.sampler.switch_samples", 128))
+# as they were measured: held-out views rendered with the switched sampler
+_NO_DENSE_EVAL = (("hi.sampler.dense_eval_after", 0),)
+_SAMPLES_64 = _SWITCH_64 + _NO_DENSE_EVAL
+_BASELINE_SAMPLES_128 = _BASELINE_SWITCH_128 + _NO_DENSE_EVAL
 # Past the switch, held-out renders with the samples the baseline's twin trains
 # and renders with (128 stratified over the whole ray); and the twin given the
 # same: twice the samples it trains with.
-_SWITCHED_DENSE_EVAL = _SAMPLES_64 + (("hi.sampler.dense_eval_after", SAMPLES_SWITCH),
+_SWITCHED_DENSE_EVAL = _SWITCH_64 + (("hi.sampler.dense_eval_after", SAMPLES_SWITCH),
                                       ("hi.sampler.dense_eval_samples", 128))
-_BASELINE_SWITCHED_DENSE_EVAL = _BASELINE_SAMPLES_128 + (
+_BASELINE_SWITCHED_DENSE_EVAL = _BASELINE_SWITCH_128 + (
     ("hi.sampler.dense_eval_after", SAMPLES_SWITCH), ("hi.sampler.dense_eval_samples", 256))
 # the baseline given the same chance as HALO's switch (equal_chance.py), and the
 # baseline without it: the study's `halo` has no switch either (_window)

@@ -22,7 +22,7 @@ import tempfile
 
 from halo_jax import config_files, protocol
 from halo_jax.stages.order import needed
-from experiments.bench import adopt, benchmark
+from experiments.bench import adopt, paths
 
 # Stage fields that change how a trained stage renders its held-out views,
 # and nothing that training reads.
@@ -30,12 +30,16 @@ RENDER_ONLY = ("sampler.dense_eval_after", "sampler.dense_eval_samples")
 
 
 def as_trained(variant):
-  """`variant` without its RENDER_ONLY overrides: the variant whose trained
-  run it renders (itself where it has none)."""
-  kept = tuple(o for o in variant.overrides
-               if not any(o[0].endswith("." + f) for f in RENDER_ONLY))
-  return variant if kept == tuple(variant.overrides) else dataclasses.replace(
-      variant, name=f"{variant.name} as trained", overrides=kept)
+  """The variant whose trained run `variant` renders: its RENDER_ONLY
+  overrides replaced by no dense renders in each stage they set (itself
+  where it has none)."""
+  render = [o for o in variant.overrides if any(o[0].endswith("." + f) for f in RENDER_ONLY)]
+  if not render:
+    return variant
+  stages = sorted({o[0].split(".sampler.")[0] for o in render})
+  kept = tuple(o for o in variant.overrides if o not in render)
+  return dataclasses.replace(variant, name=f"{variant.name} as trained", overrides=kept + tuple(
+      (f"{n}.sampler.dense_eval_after", 0) for n in stages))
 
 
 class NotRenderOnly(ValueError):
@@ -70,24 +74,14 @@ def reference_run(ref_config, scene, method, seed, results, scratches):
     raise NotRenderOnly(f"no suite run of {scene.name}/{method}/seed{seed} has the "
                         "reference's config")
   for path, record in runs:
-    places = (w for scratch in scratches for w in _workdirs(scratch, record, scene, method, seed))
+    places = (w for scratch in scratches
+              for w in paths.workdirs_of(scratch, record, "budget", scene, method, seed))
     for workdir in places:
       stored = os.path.join(workdir, ref_config.final_stage, "final", "config.json")
       if os.path.exists(stored) and _trained_as(stored, record):
         return path, record, workdir
   raise NotRenderOnly(f"{scene.name}/{method}/seed{seed}: no workdir of its suite run under "
                       f"{', '.join(scratches)}")
-
-
-def _workdirs(scratch: str, record: dict, scene, method: str, seed: int) -> tuple:
-  """Where under `scratch` the suite run of `record` trained: its own
-  workdir, or, for a record adopted from a study's run
-  (adopt.identical_study_run), that run's (ablations.py's layout)."""
-  own = benchmark.workdir_of(scratch, record["suite"], "budget", scene, method, seed)
-  adopted = (record.get("adopted_from") or {}).get("path", "")
-  if adopted.startswith("ablations" + os.sep):
-    return own, os.path.join(scratch, os.path.splitext(adopted)[0])
-  return (own,)
 
 
 def _trained_as(stored_path: str, record: dict) -> bool:

@@ -66,16 +66,22 @@ def every_kind(table: Table) -> Dict[str, Table]:
   return {k: dict(table) for k in KINDS}
 
 
-def samples_doubled_after(step: int) -> Dict[str, Derived]:
-  """Table entries that double Hi-NeRF's samples once it has trained `step`
-  steps, at the CPU sizes only: there a method's Hi samples too sparsely for
-  a long run, and a short one never reaches the switch. The paper sizes keep
-  their config's switch. Written after the table's num_samples, which it
-  doubles."""
+def sample_switch(step: int) -> Dict[str, Derived]:
+  """Table entries for long runs at the CPU sizes, where a method's Hi samples
+  too sparsely and a short run never reaches `step`: once Hi has trained
+  `step` steps its samples double, and its held-out views are rendered with
+  twice those again, stratified over the whole ray (for HALO's window and
+  the baseline alike; docs/results/ablation_hi_window_960.md). The paper
+  sizes keep their config's. Written after the table's num_samples."""
+  cpu = lambda rule, field: Derived(  # noqa: E731
+      lambda c, scene: rule(c.hi.sampler) if c.sizing == "cpu" else c.hi.sampler[field])
   return {
-      "hi.sampler.switch_step": Derived(
-          lambda c, scene: step if c.sizing == "cpu" else c.hi.sampler.switch_step),
+      "hi.sampler.switch_step": cpu(lambda s: step, "switch_step"),
       "hi.sampler.switch_samples": Derived(lambda c, scene: 2 * c.hi.sampler.num_samples),
+      # past the switch as set, overrides included (0: no switch, no dense renders)
+      "hi.sampler.dense_eval_after": cpu(lambda s: s.switch_step, "dense_eval_after"),
+      "hi.sampler.dense_eval_samples": cpu(lambda s: 2 * s.switch_samples,
+                                           "dense_eval_samples"),
   }
 
 

@@ -31,11 +31,14 @@ halo+unseen, halo_auto) applies them first:
   pixels that are not the background: without that, on a small or thin
   object Lo could stay the empty field, which matches the white background
   everywhere but on the object.
-- sphere: once Hi-NeRF has trained SWITCH_STEP steps, it trains (and is
-  scored) with twice its samples in the window, where it has fewer than the
-  baseline: a field trained long has a surface sharper than its 32 samples
-  in the window resolve, and the switch comes after the steps a short
-  budget allows, so those runs are unchanged (sampler_switch.py;
+- sphere: once Hi-NeRF has trained SWITCH_STEP steps, it trains with twice
+  its samples in the window, where it has fewer than the baseline: a field
+  trained long has a surface sharper than its 32 samples in the window
+  resolve. Its held-out views are then rendered with twice those again,
+  stratified over the whole ray (the baseline's sampler at its count): the
+  window misses parts of a long-trained surface that Hi's field holds. The
+  switch comes after the steps a short budget allows, so those runs are
+  unchanged (base.sample_switch, sampler_switch.py;
   docs/results/ablation_hi_window_960.md).
 - ndc: a quarter of Hi-NeRF's samples span the whole ray beside the window
   (FULL_FRACTION; the rest in the window, at the same cost): on a
@@ -88,7 +91,7 @@ KINDS = {
         "hi.sampler.kind": "depth_guided",
         # at the CPU sizes Hi has fewer samples than the baseline (32 in the
         # window against 64 over the ray); the paper's 128 outnumber its 64
-        **base.samples_doubled_after(SWITCH_STEP),
+        **base.sample_switch(SWITCH_STEP),
         "hi.empty.weight": _empty_weight,
         "lo.precrop_steps": 0,
         "lo.fg_steps": _on_white(FG_STEPS, "fg_steps"),
