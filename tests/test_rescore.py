@@ -75,3 +75,37 @@ def test_a_suite_record_adopted_from_a_study_is_found_in_the_studys_workdir():
   record["adopted_from"] = {"path": "ablations/hi_window_960/lattice/twin/seed1.json"}
   assert paths.workdirs_of("/s", record, "budget", LATTICE, "nerf_tuned", 1) == own + (
       "/s/ablations/hi_window_960/lattice/twin/seed1",)
+
+
+def test_a_rescored_record_takes_its_earlier_stages_validation_from_its_reference(tmp_path):
+  import hashlib  # pylint: disable=import-outside-toplevel
+  import json  # pylint: disable=import-outside-toplevel
+  from experiments.bench import adopt  # pylint: disable=import-outside-toplevel
+  lo = {"psnr": 20.0, "ssim": 0.7, "learned": "learned"}
+  reference = {"validation": {"split": "val", "num_views": 2, "stages": {
+      "lo": lo, "hi": {"psnr": 23.0, "ssim": 0.9, "learned": "learned"}}}}
+  path = tmp_path / "budget_960" / "r.json"
+  path.parent.mkdir()
+  path.write_text(json.dumps(reference))
+  digest = hashlib.sha256(path.read_bytes()).hexdigest()
+  record = {"resolved_config": {"data": {"test_split": "val", "test_views": "all"}},
+            "stages": {"lo": {"psnr": 20.0}, "ray": {}, "hi": {"psnr": 24.0}},
+            "psnr": 24.0, "ssim": 0.92, "num_views": 2, "heldout_learned": {"lo": "learned",
+                                                                            "hi": "learned"},
+            "rescored_from": {"path": "budget_960/r.json", "sha256": digest,
+                              "fields": [["hi.sampler.dense_eval_after", 2000]]}}
+  got = adopt.validation_from(record, "val", str(tmp_path))
+  assert got == {"split": "val", "num_views": 2, "stages": {
+      "lo": lo, "hi": {"psnr": 24.0, "ssim": 0.92, "learned": "learned"}}}
+  # a reference changed since, a render field of an earlier stage, or none: not derived
+  assert adopt.validation_from(dict(record, rescored_from=dict(
+      record["rescored_from"], sha256="0" * 64)), "val", str(tmp_path)) is None
+  assert adopt.validation_from(dict(record, rescored_from=dict(
+      record["rescored_from"], fields=[["lo.sampler.dense_eval_after", 1]])), "val",
+      str(tmp_path)) is None
+  plain = {k: v for k, v in record.items() if k != "rescored_from"}
+  assert adopt.validation_from(plain, "val", str(tmp_path)) is None
+  # one scored stage needs no reference
+  single = dict(plain, stages={"hi": {"psnr": 24.0}}, heldout_learned={"hi": "learned"})
+  assert adopt.validation_from(single, "val")["stages"] == {
+      "hi": {"psnr": 24.0, "ssim": 0.92, "learned": "learned"}}

@@ -13,6 +13,7 @@ from absl import logging
 from halo_jax import config_files, defaults, protocol
 from experiments.bench import git_state
 from experiments.bench import benchmark, code_version, suites
+from experiments.bench.paths import REPO
 
 UNVOUCHED = (code_version.MODIFIED, code_version.UNMEASURED)
 
@@ -163,19 +164,46 @@ def _vouched(runs, scene, method, table, mine_fp):
   return None
 
 
-def validation_from(record: dict, split: str):
+def validation_from(record: dict, split: str, results: str = ""):
   """The suite's `validation` field (benchmark.score_validation) that a
   record already holds, or None: where its held-out views are every view of
-  `split` and one stage is scored (the one with SSIM and a held-out verdict
-  in the record), that stage's figures are what scoring it again computes."""
+  `split`, the final stage's figures (with SSIM and a held-out verdict in the
+  record) are what scoring it again computes. The other scored stages' are
+  only in the `validation` of a rescored record's reference (rescore.py,
+  under `results`, the repository's by default; unchanged since), which
+  rendered them as they are: its render fields are the final stage's."""
   data = record["resolved_config"]["data"]
   scored = [n for n, stage in record["stages"].items() if "psnr" in stage]
-  if (data.get("test_split") != split or data.get("test_views") != "all" or len(scored) != 1
-      or scored[0] not in record.get("heldout_learned", {})):
+  final = list(record["stages"])[-1]
+  if (data.get("test_split") != split or data.get("test_views") != "all" or not scored
+      or scored[-1] != final or final not in record.get("heldout_learned", {})):
     return None
-  return {"split": split, "num_views": record["num_views"],
-          "stages": {scored[0]: {"psnr": record["psnr"], "ssim": record["ssim"],
-                                 "learned": record["heldout_learned"][scored[0]]}}}
+  stages = {final: {"psnr": record["psnr"], "ssim": record["ssim"],
+                    "learned": record["heldout_learned"][final]}}
+  if len(scored) > 1:
+    earlier = _reference_validation(record, split, results)
+    if earlier is None or any(n not in earlier for n in scored[:-1]):
+      return None
+    stages = {**{n: earlier[n] for n in scored[:-1]}, **stages}
+  return {"split": split, "num_views": record["num_views"], "stages": stages}
+
+
+def _reference_validation(record: dict, split: str, results: str):
+  """{stage: scores} of the validation of the run a rescored record renders,
+  where that record is unchanged (its sha256) and scored `split`; else None."""
+  source = record.get("rescored_from") or {}
+  path = os.path.join(results or os.path.join(REPO, "results"), source["path"]) \
+      if source.get("path") else ""
+  final = list(record["stages"])[-1]
+  if not os.path.isfile(path) or any(not f.startswith(final + ".")
+                                     for f, _ in source.get("fields", ())):
+    return None
+  with open(path, "rb") as f:
+    raw = f.read()
+  if hashlib.sha256(raw).hexdigest() != source.get("sha256"):
+    return None
+  validation = json.loads(raw).get("validation") or {}
+  return validation.get("stages") if validation.get("split") == split else None
 
 
 def same_config_runs(c, scene, method, seed, results):
