@@ -34,6 +34,19 @@ def _header(commit: str) -> str:
           f"{family}), {date}, {FLAGS.conditions}:")
 
 
+# pytest's lines of why a test failed ("E   assert ..."), kept up to this many
+MAX_WHY_LINES = 40
+
+
+def kept_lines(out) -> list:
+  """What a record keeps of pytest's output `out` (lines) besides its last:
+  which tests failed (the short summary's FAILED / ERROR lines) and why (the
+  first MAX_WHY_LINES of its `E ` lines, each cut at 200 characters)."""
+  failed = [l for l in out if l.startswith(("FAILED ", "ERROR "))]
+  why = [l[:200] for l in out if l.startswith("E ")][:MAX_WHY_LINES]
+  return failed + why
+
+
 def define_flags():
   """The tool's flags, defined on launch (tests import this module beside others)."""
   flags.DEFINE_string("conditions", "", "What else the machine had: data, other jobs (required).")
@@ -55,14 +68,13 @@ def main(argv):
     subprocess.run(["git", "clone", "-q", ci_records.REPO, clone], check=True)
     start = time.perf_counter()
     done = subprocess.run([os.path.join(clone, ".ci", "run")], cwd=clone,
-                          capture_output=True, text=True)
+                          capture_output=True, text=True,
+                          env=dict(os.environ, COLUMNS="200"))  # summaries not cut short
     seconds = time.perf_counter() - start
   finally:
     shutil.rmtree(clone, ignore_errors=True)
   out = [l for l in done.stdout.strip().splitlines() if l.strip()]
-  # which tests failed: pytest's short summary names them, one line each
-  failed = [l for l in out if l.startswith(("FAILED ", "ERROR "))]
-  text = "\n".join([header] + failed + out[-1:]
+  text = "\n".join([header] + kept_lines(out) + out[-1:]
                     + [f"real\t{int(seconds // 60)}m{seconds % 60:.3f}s"]) + "\n"
   path = os.path.join(ci_records.FOLDER, f"{commit}.txt")
   ci_records.parse(text, path)  # a run whose summary is missing fails here, not in the README

@@ -162,3 +162,22 @@ def test_a_run_past_its_switch_is_probed_from_the_sampler_it_was_scored_with():
   past = budget_probe.as_scored(run(5)).hi.sampler
   assert (past.num_samples, past.switch_step) == (16, 0)  # a probe's fields now replace it
   assert budget_probe.as_scored(run(4)) is c               # short of it: as configured
+
+
+def test_the_other_scenes_probes_name_a_shortfall_and_the_dense_count(tmp_path, monkeypatch):
+  from experiments.bench import probe_report
+  psnr = {"own": 23.0, "own_twice_samples": 23.2, "stratified_own_count": 22.9,
+          "baseline_sampler": 23.9, "twice_baseline_samples": 24.0, "nerf_tuned": 23.9,
+          "nerf_tuned_twice_samples": 24.05}
+  probe = {"seed": 0, "psnr": psnr, "record_psnr": {"halo": 24.0, "nerf_tuned": 24.1},
+           "samplers": {"baseline_sampler": {"kind": "stratified", "num_samples": 128}},
+           "hi_sampler": {"kind": "depth_guided", "num_samples": 64}}
+  monkeypatch.setattr(probe_report, "probes",
+                      lambda results, scenes=None: {(960.0, "spheres"): [probe]})
+  lines = "\n".join(probe_report.other_scenes_section(str(tmp_path), {"spheres": -0.10}))
+  assert "- **spheres at 960 s.** halo − nerf_tuned -0.10 dB: a goal's shortfall." in lines
+  assert "a goal's shortfall" not in "\n".join(probe_report.other_scenes_section(str(tmp_path)))
+  from experiments.bench import suites  # pylint: disable=import-outside-toplevel
+  spheres = tuple(s for s in suites.VALIDATION_SCENES if s.name == "spheres")
+  dense = "\n".join(probe_report.dense_eval_section(str(tmp_path), spheres, 960.0))
+  assert "| spheres (0) | 23.00 | 23.90 (128) | 23.90 | 24.05 | -0.90 |" in dense

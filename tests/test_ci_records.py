@@ -49,3 +49,19 @@ def test_a_record_that_names_its_failed_tests_still_parses():
                      *lines[1:]]) + "\n"
   r = ci_records.parse(named, "x.txt")
   assert r.counts == {"passed": 650, "skipped": 16, "failed": 1} and r.tests_s == 545.5
+
+
+def test_a_record_keeps_which_tests_failed_and_why():
+  from experiments import ci_record  # pylint: disable=import-outside-toplevel
+  out = ["tests/test_a.py F.", "    def test_x():", ">       assert n >= 25, n",
+         "E       AssertionError: 24", "E       assert 24 >= 25",
+         "FAILED tests/test_a.py::test_x - AssertionError: 24",
+         "1 failed, 1 passed in 3.00s"]
+  kept = ci_record.kept_lines(out)
+  assert kept == ["FAILED tests/test_a.py::test_x - AssertionError: 24",
+                  "E       AssertionError: 24", "E       assert 24 >= 25"]
+  # the record still parses: its summary is pytest's last line, after them
+  text = "\n".join(["CI (.ci/run) on a fresh clone of abc1234, 2 CPU cores (X family 1), "
+                    "2026-11-30, idle:"] + kept + out[-1:] + ["real\t0m4.000s"]) + "\n"
+  assert ci_records.parse(text, "x.txt").counts == {"failed": 1, "passed": 1}
+  assert ci_record.kept_lines(["2 passed in 1.00s"]) == []

@@ -259,9 +259,9 @@ def other_scenes_section(results, behind=None) -> list:
 def dense_eval_section(results, scenes, budget_s: float) -> list:
   """The free check of dense evaluation at `budget_s` on `scenes` (those
   whose Hi the window samples): from the probes, each method's held-out
-  PSNR as scored and rendered densely (halo's Hi: 64 samples stratified
-  over the whole ray, `baseline_sampler`; nerf_tuned: its 64 samples
-  doubled), and halo's margin with neither, halo alone, and both rendered
+  PSNR as scored and rendered densely (halo's Hi: nerf_tuned's sampler at
+  its scored count, `baseline_sampler`; nerf_tuned: its samples doubled),
+  and halo's margin with neither, halo alone, and both rendered
   densely (the same chance for the baseline)."""
   by_key = probes(results, tuple(s.name for s in scenes))
   ps_of = [(scene, ps) for (b, scene), ps in sorted(
@@ -274,15 +274,21 @@ def dense_eval_section(results, scenes, budget_s: float) -> list:
     base, base2 = _mean(ps, "psnr", BASELINE), _mean(ps, "psnr", f"{BASELINE}_twice_samples")
     moves["halo"].append(dense - own)
     moves["both"].append((dense - base2) - (own - base))
+    count = "/".join(sorted({str(p.get("samplers", {}).get("baseline_sampler", {}).get(
+        "num_samples", "?")) for p in ps}))
     rows.append(f"| {scene} ({', '.join(str(p.get('seed')) for p in ps)}) | {own:.2f} | "
-                f"{dense:.2f} | {base:.2f} | {base2:.2f} | {own - base:+.2f} | "
+                f"{dense:.2f} ({count}) | {base:.2f} | {base2:.2f} | {own - base:+.2f} | "
                 f"{dense - base:+.2f} | {dense - base2:+.2f} |")
   return [f"### Dense evaluation at {budget_s:g} s: the free check", "",
-          "Hi trained as it is, its held-out views rendered with 64 samples stratified over "
-          "the whole ray (`sampler.dense_eval_after`; the study's `dense_eval_2000`), beside "
+          "Hi trained as it is, its held-out views rendered with the probed "
+          f"{BASELINE}'s sampler at the count it was scored with (stratified over the whole "
+          "ray; the count in brackets: 128 where that run was past its switch), beside "
           f"{BASELINE} rendered with twice its samples (the same chance for the baseline), "
-          "from the probes above (seeds in brackets; the probes' pixel grid):", "",
-          f"| scene | halo | halo, dense | {BASELINE} | {BASELINE}, 2× | Δ as scored | "
+          "from the probes above (seeds in brackets; the probes' pixel grid; `window`: Hi's "
+          "own sampler, as it trains). The rule's verdicts on dense renders, on "
+          "every validation view, are the `hi_window` studies' (`dense_eval_2000`: 64 "
+          "samples; `samples_64_after_2000+dense_eval_128`: today's default):", "",
+          f"| scene | halo, window | halo, dense | {BASELINE} | {BASELINE}, 2× | Δ, window | "
           "Δ, halo dense | Δ, both dense |", "|---|---|---|---|---|---|---|---|", *rows, "",
           f"Mean over {len(rows)} scenes: dense evaluation adds "
           f"{np.mean(moves['halo']):+.2f} dB to halo (from {min(moves['halo']):+.2f} to "

@@ -12,6 +12,9 @@ from halo_jax.datasets.base import DataError
 from halo_jax.datasets.posed_photos import IMAGE_EXT, UNDISTORTED, Capture, one_pinhole
 
 
+SFM_SEED = 0
+
+
 def _pycolmap():
   try:
     import pycolmap  # pylint: disable=g-import-not-at-top
@@ -41,8 +44,11 @@ def model_folder(root: str) -> Optional[str]:
 
 def run_sfm(root: str) -> str:
   """Structure-from-motion on the photos of `root` (one shared camera), the
-  largest model written to root/sparse/0; returns that folder."""
+  largest model written to root/sparse/0; returns that folder. Seeded
+  (SFM_SEED): COLMAP's default seeds its RANSAC and mapper from the clock, so
+  the same photos could register differently from one launch to the next."""
   pycolmap = _pycolmap()
+  pycolmap.set_random_seed(SFM_SEED)
   images = image_folder(root)
   work = os.path.join(root, "colmap")
   os.makedirs(work, exist_ok=True)
@@ -62,7 +68,9 @@ def run_sfm(root: str) -> str:
       elif step == "matching":
         pycolmap.match_exhaustive(db, device=pycolmap.Device.cpu)
       else:
-        maps = pycolmap.incremental_mapping(db, images, work)
+        mapper = pycolmap.IncrementalPipelineOptions()
+        mapper.random_seed = SFM_SEED
+        maps = pycolmap.incremental_mapping(db, images, work, options=mapper)
   if not maps:
     raise DataError(f"{images}: structure-from-motion registered no cameras (too little "
                     "texture or overlap between the photos)")
