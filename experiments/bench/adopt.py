@@ -94,14 +94,9 @@ def _same_config(mine: dict, theirs: dict) -> bool:
 def run_config(record: dict) -> dict:
   """The resolved config of a record's run: its `resolved_config`, with the
   render fields a rescored record was scored with (rescore.py) laid over."""
-  out = json.loads(json.dumps(record["resolved_config"]))
-  for dotted, value in (record.get("rescored_from") or {}).get("fields", ()):
-    *path, field = dotted.split(".")
-    node = out
-    for part in path:
-      node = node.setdefault(part, {})
-    node[field] = value
-  return out
+  fields = dict((record.get("rescored_from") or {}).get("fields", ()))
+  # {dotted: value} is a one-level overlay whose keys dotted_fields keeps as they are.
+  return config_files.laid_over(record["resolved_config"], fields)
 
 
 def same_resolved(mine: dict, theirs: dict) -> bool:

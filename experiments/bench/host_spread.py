@@ -5,9 +5,11 @@ session, on whatever host that session gets.
 The budget protocol fixes the steps, so what moves a rerun is the host's
 floating-point path (its CPU's vector code, the library build), not its
 speed. A rerun is a suite run trained again:
-  results/<suite>/rerun/<scene>/<method>/seed0.json
-(experiments/bench/benchmark.py with --results pointing elsewhere, then
-copied there; report.py leaves the 'rerun' folders out of the suite pages).
+  results/<suite>/rerun/<scene>/<method>/seed0.json, or seed0@<host>.json
+for a scene's rerun on another host (experiments/bench/benchmark.py with
+--results pointing elsewhere, then copied there; report.py leaves the
+'rerun' folders out of the suite pages). The two methods' files of the
+same name make a pair.
 A scene kind's spread is the largest move of the halo - nerf_tuned margin
 over its rerun pairs; a margin no larger than its kind's spread falls inside
 it, so its sign is not measured.
@@ -23,7 +25,9 @@ MODE = "rerun"
 
 
 def reruns(results: str, suite: str) -> dict:
-  """{scene: {method: record}} of `suite`'s reruns under `results`."""
+  """{label: {method: record}} of `suite`'s reruns under `results`: the
+  label is the scene for `seed0.json`, '<scene> @<host>' for
+  `seed0@<host>.json`."""
   root = os.path.join(results, suite, MODE)
   out = {}
   if not os.path.isdir(root):
@@ -32,8 +36,9 @@ def reruns(results: str, suite: str) -> dict:
     for method in sorted(os.listdir(os.path.join(root, scene))):
       for f in sorted(os.listdir(os.path.join(root, scene, method))):
         if f.endswith(".json"):
+          host = f[:-len(".json")].partition("@")[2]
           with open(os.path.join(root, scene, method, f)) as fh:
-            out.setdefault(scene, {})[method] = json.load(fh)
+            out.setdefault(f"{scene} @{host}" if host else scene, {})[method] = json.load(fh)
   return out
 
 
@@ -41,14 +46,18 @@ def _date(record) -> str:
   return (record.get("provenance") or {}).get("time_utc", "?")[:10]
 
 
-def _pair(first: dict, again: dict, dates: dict, seed, methods) -> dict:
+def _cpu(record) -> str:
+  return ((record.get("provenance") or {}).get("cpu") or {}).get("model", "?")
+
+
+def _pair(first: dict, again: dict, dates: dict, seed, methods, host="not recorded") -> dict:
   """One pair's entry: `first` {method: suite record}, `again` {method: the
-  rerun's PSNR}, `dates` {method: the rerun's date}."""
+  rerun's PSNR}, `dates` {method: the rerun's date}, `host` the rerun's CPU."""
   a, b = methods
   rec = {m: float(first[m]["psnr"]) for m in methods}
   new = {m: float(again[m]) for m in methods}
   return {"record": rec, "rerun": new, "moved": (new[a] - new[b]) - (rec[a] - rec[b]),
-          "seed": seed, "config": first[a]["config"],
+          "seed": seed, "config": first[a]["config"], "host": host,
           "when": {m: [_date(first[m]), dates[m]] for m in methods}}
 
 
@@ -70,15 +79,18 @@ def pairs(runs: dict, again: dict, methods=("halo", "nerf_tuned")) -> dict:
   """{scene: {'record': {method: psnr}, 'rerun': {method: psnr}, 'moved':
   margin's move (rerun - record), 'seed', 'config', 'when'}} for each scene
   whose reruns of both `methods` are runs of a record of the same seed in
-  `runs` ({scene: {method: [record]}}), config for config."""
+  `runs` ({scene: {method: [record]}}), config for config; keyed by
+  reruns()' labels."""
   out = {}
-  for scene, by in again.items():
+  for label, by in again.items():
+    scene = label.partition(" @")[0]
     if not all(m in by for m in methods):
       continue
     first = {m: _same_seed(runs, scene, m, by[m].get("seed")) for m in methods}
     if all(first.values()) and all(_same_run(first[m], by[m]) for m in methods):
-      out[scene] = _pair(first, {m: by[m]["psnr"] for m in methods},
-                         {m: _date(by[m]) for m in methods}, by[methods[0]].get("seed"), methods)
+      out[label] = _pair(first, {m: by[m]["psnr"] for m in methods},
+                         {m: _date(by[m]) for m in methods}, by[methods[0]].get("seed"), methods,
+                         " / ".join(sorted({_cpu(by[m]) for m in methods})))
   return out
 
 
@@ -139,17 +151,19 @@ def lines(found: dict, kind_of, budget_s: float, methods=("halo", "nerf_tuned"))
           f"{p['record'][b]:.2f} → {p['rerun'][b]:.2f} | "
           f"{p['record'][a] - p['record'][b]:+.2f} → {p['rerun'][a] - p['rerun'][b]:+.2f} | "
           f"{p['moved']:+.2f} | " + ", ".join(f"{m} {' → '.join(d)}" for m, d in p["when"].items())
-          + " |" for s, p in sorted(found.items(), key=lambda kv: kind_of(kv[1]["config"]))]
+          + f" | {p.get('host', '?')} |" for s, p in sorted(found.items(), key=lambda kv: kind_of(kv[1]["config"]))]
   moves = np.abs([p["moved"] for p in found.values()])
   return [f"### Host spread at {budget_s:g} s", "",
           "The seed-0 pair of one scene of each kind, trained again in a later session on "
-          "whatever host it got (the same steps: the budget fixes them), against the suite's "
+          "whatever host it got (the same steps: the budget fixes them; `@host` names a "
+          "further rerun on another), against the suite's "
           "record (`results/budget_960/rerun/`, experiments/bench/host_spread.py); and, "
           "marked `(probe)`, the pairs trained again for the budget probes in earlier "
           "sessions by code of the same measured fingerprint. A kind's spread is the largest "
           "move of a margin among its pairs; the table above marks a margin no larger than "
           "its kind's spread.", "",
           f"| kind | scene | {a}: record → rerun | {b}: record → rerun | Δ: record → rerun | "
-          "margin moved | dates (record → rerun) |", "|---|---|---|---|---|---|---|", *rows, "",
+          "margin moved | dates (record → rerun) | rerun's CPU |",
+          "|---|---|---|---|---|---|---|---|", *rows, "",
           f"Largest move of a margin: {moves.max():.2f} dB; median {np.median(moves):.2f} dB "
           f"over {len(moves)} pairs.", ""]
