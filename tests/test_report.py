@@ -480,15 +480,21 @@ def test_the_host_spread_is_each_kinds_largest_move_of_a_reruns_margin(tmp_path)
       json.dumps(dict(again["lego_8view"]["halo"], resolved_config=plain)))
   assert sorted(host_spread.pairs(runs, host_spread.reruns(str(tmp_path), "budget_960"))) == [
       "dnerf_hook"]
+  # a rescored record is the run of its config with the rescored fields laid over
+  runs["lego_8view"]["halo"][0]["resolved_config"] = switched
+  runs["lego_8view"]["halo"][0]["rescored_from"] = {"fields": [["hi.sampler.switch_step", 0]]}
+  assert sorted(host_spread.pairs(runs, host_spread.reruns(str(tmp_path), "budget_960"))) == [
+      "dnerf_hook", "lego_8view"]
   # a second rerun of a scene, on another host, is a pair of its own beside the first
   d = tmp_path / "budget_960" / "rerun" / "dnerf_hook"
   for m, p in (("halo", 18.4), ("nerf_tuned", 19.0)):
     (d / m / "seed0@xeon.json").write_text(json.dumps(dict(
         rec(p, hook), provenance={"cpu": {"model": "Intel Xeon"}, "time_utc": "2026-11-30T04"})))
   found = host_spread.pairs(runs, host_spread.reruns(str(tmp_path), "budget_960"))
-  assert sorted(found) == ["dnerf_hook", "dnerf_hook @xeon"]
+  assert sorted(found) == ["dnerf_hook", "dnerf_hook @xeon", "lego_8view"]
   assert found["dnerf_hook @xeon"]["moved"] == pytest.approx(0.4)   # -1.0 -> -0.6
-  assert host_spread.by_kind(found, code_version.kind_of) == pytest.approx({"dnerf": 1.5})
+  assert host_spread.by_kind(found, code_version.kind_of) == pytest.approx(
+      {"blender": 0.2, "dnerf": 1.5})
   text = "\n".join(host_spread.lines(found, code_version.kind_of, 960.0))
   assert ("| dnerf | dnerf_hook @xeon | 18.00 → 18.40 | 19.00 → 19.00 | -1.00 → -0.60 | +0.40 | "
           "halo ? → 2026-11-30, nerf_tuned ? → 2026-11-30 | Intel Xeon |") in text

@@ -72,7 +72,7 @@ def _same_run(record: dict, rerun: dict) -> bool:
   from experiments.bench import adopt  # pylint: disable=import-outside-toplevel  (it reads runs)
   if "resolved_config" not in record or "resolved_config" not in rerun:
     return True  # older than configs in records: the fingerprint vouched for them
-  return adopt.same_resolved(rerun["resolved_config"], record["resolved_config"])
+  return adopt.same_resolved(adopt.run_config(rerun), adopt.run_config(record))
 
 
 def pairs(runs: dict, again: dict, methods=("halo", "nerf_tuned")) -> dict:
