@@ -151,7 +151,8 @@ def lines(found: dict, kind_of, budget_s: float, methods=("halo", "nerf_tuned"))
           f"{p['record'][b]:.2f} → {p['rerun'][b]:.2f} | "
           f"{p['record'][a] - p['record'][b]:+.2f} → {p['rerun'][a] - p['rerun'][b]:+.2f} | "
           f"{p['moved']:+.2f} | " + ", ".join(f"{m} {' → '.join(d)}" for m, d in p["when"].items())
-          + f" | {p.get('host', '?')} |" for s, p in sorted(found.items(), key=lambda kv: kind_of(kv[1]["config"]))]
+          + f" | {p['host']} |"
+          for s, p in sorted(found.items(), key=lambda kv: kind_of(kv[1]["config"]))]
   moves = np.abs([p["moved"] for p in found.values()])
   return [f"### Host spread at {budget_s:g} s", "",
           "The seed-0 pair of one scene of each kind, trained again in a later session on "
