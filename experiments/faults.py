@@ -273,6 +273,10 @@ def case_lost_peer(wd):
 CASES = [
     ("LLFF with L_empty (`--config=configs/llff.py:fern_4view_cpu --config.hi.empty.weight=0.1`)",
      case_llff_empty),
+    ("a variant its config file does not have (`--config=configs/blender.py:lego_9view`)",
+     lambda wd: run(main_cmd(wd, config="configs/blender.py:lego_9view"))),
+    ("a config file that does not exist (`--config=configs/blendr.py:lego_8view`)",
+     lambda wd: run(main_cmd(wd, config="configs/blendr.py:lego_8view"))),
     ("NaN learning rate (`--config.lo.lr_init=nan`)",
      lambda wd: run(main_cmd(wd, "--config.lo.lr_init=nan"))),
     ("zero batch (`--config.lo.batch_rays=0`)",

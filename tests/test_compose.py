@@ -110,12 +110,21 @@ def test_the_protocol_argument_is_the_protocol_fields():
 def test_an_unknown_field_is_one_line_with_the_nearest_names():
   with pytest.raises(KeyError, match="'hi.sampler.num_sampels'; nearest: hi.sampler.num_samples"):
     configure.compose("configs/default.py", "halo", {"hi.sampler.num_sampels": 64})
-  line = cli.unknown_override(["halo-train", "--config=configs/default.py",
-                               "--config.hi.sampler.num_sampels=64"])
+  line = cli.config_refusal(["halo-train", "--config=configs/default.py",
+                             "--config.hi.sampler.num_sampels=64"])
   assert line.startswith("--config.hi.sampler.num_sampels: ") and "\n" not in line
   assert "nearest: hi.sampler.num_samples" in line
-  assert cli.unknown_override(["halo-train", "--config=configs/default.py",
-                               "--config.hi.sampler.num_samples=64"]) == ""
+  assert cli.config_refusal(["halo-train", "--config=configs/default.py",
+                             "--config.hi.sampler.num_samples=64"]) == ""
+
+
+def test_a_config_that_does_not_load_is_one_line_naming_it():
+  variant = cli.config_refusal(["halo-train", "--config=configs/blender.py:lego_9view"])
+  assert variant.startswith("--config=configs/blender.py:lego_9view: unknown variant 'lego_9view'")
+  assert "\n" not in variant
+  missing = cli.config_refusal(["halo-train", "--config=configs/nosuch.py:x"])
+  assert missing == "--config=configs/nosuch.py:x: config file 'configs/nosuch.py' not found"
+  assert cli.config_refusal(["halo-train", "--config=configs/blender.py:lego_8view_cpu"]) == ""
 
 
 def test_a_launch_refused_for_its_data_leaves_the_workdir_untouched(tmp_path):

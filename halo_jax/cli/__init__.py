@@ -42,18 +42,21 @@ def config_of_flags(config_flag, method: str, overrides=None):
   return configure.compose(config_flags.get_config_filename(config_flag), method, fields)
 
 
-def unknown_override(argv) -> str:
-  """The one-line refusal of the first --config.<field>=VALUE in argv whose
-  field the scene's config lacks (with the nearest field names), or ''.
-  ml_collections would refuse it too, in a traceback, while parsing flags."""
+def config_refusal(argv) -> str:
+  """The one-line refusal of argv's --config, or ''. Refused: a config file
+  that does not exist, a variant its file rejects (configs raise ValueError
+  naming the variants they know), and the first --config.<field>=VALUE whose
+  field the scene's config lacks (with the nearest field names).
+  ml_collections would refuse each too, in a traceback, while parsing flags;
+  any other error in a config file is a bug and keeps its traceback."""
   spec = next((a.split("=", 1)[1] for a in argv if a.startswith("--config=")), None)
   fields = [a.split("=", 1)[0][len("--config."):] for a in argv if a.startswith("--config.")]
-  if not spec or not fields:
+  if not spec:
     return ""
   try:
     scene = configure.load_scene(spec)
-  except Exception:  # pylint: disable=broad-except
-    return ""  # a config that does not load is reported by the flag's own parse
+  except (FileNotFoundError, ValueError) as e:
+    return f"--config={spec}: {e}"
   for field in fields:
     try:
       frozen.get_field(scene, field)
@@ -64,10 +67,10 @@ def unknown_override(argv) -> str:
 
 def run_app(main, argv=None):
   """absl's app.run of `main` with --config's spec resolved
-  (config_files.resolve_argv), after a mistyped override field is refused
-  in one line and exit 2."""
+  (config_files.resolve_argv), after a config that does not load or a
+  mistyped override field is refused in one line and exit 2."""
   argv = config_files.resolve_argv(argv)
-  refused = unknown_override(argv)
+  refused = config_refusal(argv)
   if refused:
     print(f"error: {refused}", file=sys.stderr)
     raise SystemExit(user_errors.EXIT_CODE)
