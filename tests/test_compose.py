@@ -131,6 +131,6 @@ def test_a_launch_refused_for_its_data_leaves_the_workdir_untouched(tmp_path):
   wd = tmp_path / "run"
   bad = configure.compose("configs/blender.py:lego_8view_cpu", "nerf_tuned",
                           {"data.root": str(tmp_path / "missing")})
-  with pytest.raises(DataError, match="file not found"):
+  with pytest.raises(DataError, match="does not exist: set HALO_DATA"):
     pipeline.run(bad, str(wd))
   assert not os.path.exists(wd)

@@ -120,7 +120,7 @@ def test_loader_coordinates(tmp_path):
 
 
 @pytest.mark.parametrize("change, message", [
-    (dict(root="/nonexistent/lf"), "light-field folder not found"),
+    (dict(root="/nonexistent/lf"), r"data.root='/nonexistent/lf' does not exist: set HALO_DATA"),
     (dict(test_views="09_09"), r"views \['09_09'\] named in the config are not in the grid"),
 ])
 def test_bad_light_field_input(tmp_path, change, message):

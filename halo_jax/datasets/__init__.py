@@ -32,8 +32,12 @@ LOADERS = registry.Registry[DatasetSpec]("dataset")
 
 
 def _root(cfg, example):
+  """cfg.root, or a DataError that says where a dataset is looked for."""
   if not cfg.root:
     raise DataError(f"data.root is empty: pass --config.data.root={example}")
+  if not os.path.exists(cfg.root):
+    raise DataError(f"data.root={cfg.root!r} does not exist: set HALO_DATA to the folder that "
+                    f"holds the datasets (README, Data) or pass --config.data.root={example}")
   return cfg.root
 
 
