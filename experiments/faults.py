@@ -179,9 +179,11 @@ def case_small_disk(wd):
 def case_collapsed(wd):
   """Lo-NeRF built to learn nothing: its density starts at softplus(raw - 30),
   ~1e-13, where the gradient vanishes, so it stays the empty field."""
+  # fg_steps=0: the check judges only steps past the foreground start, and
+  # the default's start (200 steps) is past this 16-step stage
   out = run(main_cmd(wd, "--config.lo.model.density_bias=-30", "--config.lo.steps=16",
                      "--config.lo.batch_rays=512", "--config.lo.collapse.after_steps=10",
-                     stages="lo,ray,hi"))
+                     "--config.lo.fg_steps=0", stages="lo,ray,hi"))
   info = os.path.join(wd, "lo", "final", "info.json")
   verdict = ""
   if os.path.exists(info):
@@ -312,7 +314,8 @@ CASES = [
     ("a workdir in a read-only folder", case_read_only),
     ("a workdir on a full disk (200 kB free)", case_full_disk),
     ("a workdir on a 1 MiB disk (the built-in scene's images fill it)", case_small_disk),
-    ("a stage that learns nothing (`--config.lo.model.density_bias=-30`: Lo's density starts "
+    ("a stage that learns nothing (`--config.lo.model.density_bias=-30 "
+     "--config.lo.fg_steps=0`: Lo's density starts "
      "where its gradient vanishes, so it stays the empty field)", case_collapsed),
     ("a training image missing from the scene folder", case_missing_image),
     ("`transforms_train.json` that is not valid JSON", case_malformed_json),
